@@ -1,0 +1,1 @@
+"""Interpretation of XLOT records: reading, segmentation, picks, stress."""

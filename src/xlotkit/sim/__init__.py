@@ -1,0 +1,1 @@
+"""Simulation of XLOTs: lumped model and 2D hydro-mechanical MDEM model."""

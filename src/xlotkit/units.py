@@ -1,0 +1,217 @@
+"""Unit handling at the edges of the package (readers, CLI, plots), built on pint.
+
+Everything inside xlotkit is SI. Field logs write units the way service companies do
+(``bars``, ``l/min``, ``sgu``, ``m3``, ``psi absolute``, ``bpm``, ``°C``); :func:`parse_unit`
+normalises those spellings to pint expressions and :func:`to_si` converts values. Spellings
+pint cannot understand raise :class:`~xlotkit.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from xlotkit.errors import InputError
+
+__all__ = ["ParsedUnit", "from_si", "parse_unit", "registry", "to_si"]
+
+# Oilfield spellings -> pint expressions. Only the spelling is translated here; the conversion
+# factors all come from pint's definitions.
+_ALIASES = {
+    "bars": "bar",
+    "barg": "bar",
+    "bara": "bar",
+    "psia": "psi",
+    "psig": "psi",
+    "kpa": "kPa",
+    "mpa": "MPa",
+    "pa": "Pa",
+    "sgu": "sg",
+    "sg": "sg",
+    "s.g.": "sg",
+    "ppg": "lb/gallon",
+    "lb/gal": "lb/gallon",
+    "m3": "m**3",
+    "m^3": "m**3",
+    "m³": "m**3",
+    "m3/min": "m**3/min",
+    "m3/s": "m**3/s",
+    "m3/h": "m**3/hour",
+    "m3/hr": "m**3/hour",
+    "l/min": "liter/minute",
+    "lpm": "liter/minute",
+    "l/s": "liter/second",
+    "liters": "liter",
+    "litre": "liter",
+    "l": "liter",
+    "bpm": "oil_barrel/minute",
+    "bbl/min": "oil_barrel/minute",
+    "bbl": "oil_barrel",
+    "gpm": "gallon/minute",
+    "gal": "gallon",
+    "°c": "degC",
+    "ºc": "degC",
+    "degc": "degC",
+    "c": "degC",
+    "deg c": "degC",
+    "°f": "degF",
+    "degf": "degF",
+    "f": "degF",
+    "k": "kelvin",
+    "s": "second",
+    "sec": "second",
+    "secs": "second",
+    "seconds": "second",
+    "min": "minute",
+    "mins": "minute",
+    "minutes": "minute",
+    "h": "hour",
+    "hr": "hour",
+    "hrs": "hour",
+    "hours": "hour",
+    "kg/m3": "kg/m**3",
+    "g/cc": "g/cm**3",
+    "g/cm3": "g/cm**3",
+    "m": "meter",
+    "ft": "foot",
+}
+
+# Markers of absolute / gauge pressure written next to the unit.
+_ABS_RE = re.compile(r"\b(absolute|abs)\b|^(psia|bara)$", re.IGNORECASE)
+_GAUGE_RE = re.compile(r"\b(gauge|gage|g)\b|^(psig|barg)$", re.IGNORECASE)
+
+
+@lru_cache(maxsize=1)
+def registry():
+    """The package's pint :class:`~pint.UnitRegistry` (created on first use).
+
+    Adds ``sg`` (specific gravity, 1000 kg/m^3 of fresh water) which pint lacks.
+    """
+    import pint
+
+    ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    ureg.define("specific_gravity = 1000 * kilogram / meter ** 3 = sg")
+    return ureg
+
+
+@dataclass(frozen=True)
+class ParsedUnit:
+    """A unit string as found in a file, understood.
+
+    Attributes
+    ----------
+    text : str
+        The original spelling.
+    expr : str
+        The pint expression it maps to.
+    absolute : bool or None
+        For pressures: True if marked absolute, False if marked gauge, None if unmarked.
+    """
+
+    text: str
+    expr: str
+    absolute: bool | None = None
+
+    @property
+    def unit(self):
+        """The pint unit."""
+        return registry().Unit(self.expr)
+
+    @property
+    def dimensionality(self):
+        """pint dimensionality (``[mass] / [length] / [time] ** 2`` for pressure, ...)."""
+        return self.unit.dimensionality
+
+    def is_a(self, kind: str) -> bool:
+        """Whether this unit measures ``kind``.
+
+        ``kind`` is one of ``pressure``, ``rate``, ``volume``, ``density``,
+        ``temperature``, ``time``, ``length``, ``dimensionless``.
+        """
+        ref = {
+            "pressure": "Pa",
+            "rate": "m**3/s",
+            "volume": "m**3",
+            "density": "kg/m**3",
+            "temperature": "kelvin",
+            "time": "second",
+            "length": "meter",
+            "dimensionless": "dimensionless",
+        }[kind]
+        return self.dimensionality == registry().Unit(ref).dimensionality
+
+
+def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
+               key: str | None = None) -> ParsedUnit:
+    """Understand a unit as written in a log.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``"bars"``, ``"l/min"``, ``"psi absolute"``, ``"°C"``, ``"(bpm)"``.
+    file, line, key : optional
+        Location reported if the unit is not understood.
+
+    Returns
+    -------
+    ParsedUnit
+
+    Raises
+    ------
+    InputError
+        If pint cannot interpret the unit.
+    """
+    import pint
+
+    raw = text
+    s = text.strip().strip("[]()").strip()
+    absolute: bool | None = None
+    if _ABS_RE.search(s):
+        absolute = True
+    elif _GAUGE_RE.search(s) and s.lower() not in ("g/cc", "g/cm3", "g"):
+        absolute = False
+    s = re.sub(r"\b(absolute|abs|gauge|gage)\b", "", s, flags=re.IGNORECASE).strip()
+    low = s.lower()
+    if low in ("", "-", "none", "dimensionless", "1"):
+        return ParsedUnit(raw, "dimensionless", None)
+    expr = _ALIASES.get(low, s)
+    try:
+        registry().Unit(expr)
+    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError,
+            AttributeError, TypeError, AssertionError) as exc:
+        raise InputError(f"unit {raw!r} is not understood ({exc.__class__.__name__})",
+                         file=file, line=line, key=key,
+                         expected="a unit such as bar, psi, MPa, l/min, bpm, m3, sg, degC") from None
+    return ParsedUnit(raw, expr, absolute)
+
+
+def to_si(values, unit: str | ParsedUnit) -> np.ndarray:
+    """Convert values from ``unit`` to SI base units.
+
+    Parameters
+    ----------
+    values : array_like
+        Numbers in ``unit``.
+    unit : str or ParsedUnit
+        Source unit (field spellings accepted, see :func:`parse_unit`).
+
+    Returns
+    -------
+    ndarray
+        Values in SI (Pa, m^3/s, m^3, kg/m^3, K, s, m).
+    """
+    pu = unit if isinstance(unit, ParsedUnit) else parse_unit(unit)
+    q = registry().Quantity(np.asarray(values, dtype=float), pu.expr)
+    return np.asarray(q.to_base_units().magnitude, dtype=float)
+
+
+def from_si(values, unit: str | ParsedUnit) -> np.ndarray:
+    """Convert SI values to ``unit`` (the inverse of :func:`to_si`)."""
+    pu = unit if isinstance(unit, ParsedUnit) else parse_unit(unit)
+    ureg = registry()
+    base = ureg.Quantity(1.0, pu.expr).to_base_units().units
+    q = ureg.Quantity(np.asarray(values, dtype=float), base)
+    return np.asarray(q.to(pu.expr).magnitude, dtype=float)
