@@ -1,0 +1,1 @@
+"""Plots for XLOT records, picks and stress estimates (matplotlib, Agg backend)."""
