@@ -1,0 +1,62 @@
+"""The result type shared by every pick."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+__all__ = ["Pick", "PickQuality"]
+
+PickQuality = Literal["good", "fair", "poor", "none"]
+
+
+@dataclass(frozen=True)
+class Pick:
+    """One picked pressure by one method.
+
+    Attributes
+    ----------
+    name : str
+        What was picked: ``"LOP"``, ``"FBP"``, ``"Pr"``, ``"FPP"``, ``"ISIP"``, ``"FCP"``.
+    method : str
+        How: e.g. ``"tangent"``, ``"sqrt_t"``, ``"g_function"``, ``"bilinear"``,
+        ``"compliance"``, ``"flowback_sqrt_p"``, ``"flowback_p_v"``, ``"max"``.
+    value : float or None
+        Picked pressure [Pa] on the record's reference; None when the record does not
+        contain it (e.g. the decline never reaches closure) -- ``message`` says why.
+    low, high : float or None
+        Interval [Pa] combining the fit's covariance and the spread over nearby windows.
+    t : float or None
+        Elapsed time of the pick [s].
+    window : tuple of float or None
+        Time window [s] of the data the pick was made from.
+    quality : {"good", "fair", "poor", "none"}
+        ``none`` when there is no value.
+    message : str
+        Human-readable note (why no value, diagnosis of the decline, ...).
+    details : Mapping[str, Any]
+        Method-specific numbers (fitted slopes, stiffnesses [Pa/m^3], R^2, G at closure, ...),
+        SI units.
+    """
+
+    name: str
+    method: str
+    value: float | None
+    low: float | None = None
+    high: float | None = None
+    t: float | None = None
+    window: tuple[float, float] | None = None
+    quality: PickQuality = "good"
+    message: str = ""
+    details: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def found(self) -> bool:
+        """Whether a value was picked."""
+        return self.value is not None
+
+    @classmethod
+    def not_found(cls, name: str, method: str, message: str, **kw: Any) -> Pick:
+        """A pick that reports why there is no value."""
+        return cls(name=name, method=method, value=None, quality="none", message=message, **kw)
