@@ -1,0 +1,477 @@
+"""The test program: pump, shut-in, flowback and bleed phases, grouped into cycles.
+
+Shared by the lumped model and the 2D simulator, so it only describes *what the operator
+does*; each simulator decides how to honour it. All values are SI (m^3/s, s, m^3, Pa); field
+units appear only in :meth:`Schedule.from_dict`, which accepts ``"500 l/min"``-style strings
+(parsed with :mod:`xlotkit.units`) and is what a TOML scene file maps to.
+
+Phases
+------
+* :class:`Pump` — constant ``rate`` or stepped ``steps = ((duration, rate), ...)``.
+* :class:`ShutIn` — well closed, no flow at surface.
+* :class:`Flowback` — return through a fixed surface choke, ``Q = zeta sqrt(p_s - p_atm)``
+  (thesis Eq. 4.24); ``zeta`` given, or calibrated from ``initial_rate`` at the surface
+  pressure the phase starts with.
+* :class:`Bleed` — return at constant ``rate``.
+
+Each phase ends at the first of: its ``duration``; its ``volume`` (pumped for :class:`Pump`,
+returned for :class:`Flowback` / :class:`Bleed`); the pressure rising to ``pressure_above`` or
+falling to ``pressure_below`` (measured at ``pressure_at``: ``"bottomhole"`` or
+``"surface"``, gauge). A stepped pump with no ``duration`` ends with its last step. Every
+phase needs at least one end condition.
+
+Cycles: the phase list is run ``cycles`` times; within it a new cycle starts at every pump
+phase that follows a non-pump phase (an XLOT cycle is a pressurisation and what follows).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal, Union
+
+from xlotkit.errors import InputError
+from xlotkit.sim.well import _check
+from xlotkit.units import parse_unit, to_si
+
+__all__ = ["Bleed", "Flowback", "Phase", "PressureAt", "Pump", "Schedule", "ShutIn",
+           "parse_quantity"]
+
+PressureAt = Literal["bottomhole", "surface"]
+
+#: Upper bounds used in validation (generous; they catch unit mistakes such as l/min as m3/s).
+_MAX_RATE = 1.0          # m^3/s (60 m^3/min)
+_MAX_DURATION = 30 * 86400.0
+_MAX_VOLUME = 1e4        # m^3
+_MAX_PRESSURE = 500e6    # Pa
+
+
+@dataclass(frozen=True, kw_only=True)
+class _PhaseBase:
+    """End conditions common to all phases (see module docstring)."""
+
+    kind: ClassVar[str] = ""
+    duration: float | None = None
+    pressure_above: float | None = None
+    pressure_below: float | None = None
+    pressure_at: PressureAt = "bottomhole"
+    name: str = ""
+
+    def _validate_common(self) -> None:
+        k = self.kind
+        _check(f"{k}.duration", self.duration, lo=0.0, hi=_MAX_DURATION, lo_open=True,
+               allow_none=True)
+        _check(f"{k}.pressure_above", self.pressure_above, lo=-1e6, hi=_MAX_PRESSURE,
+               allow_none=True)
+        _check(f"{k}.pressure_below", self.pressure_below, lo=-1e6, hi=_MAX_PRESSURE,
+               allow_none=True)
+        if self.pressure_at not in ("bottomhole", "surface"):
+            raise InputError(f"unknown pressure reference {self.pressure_at!r}",
+                             key=f"{k}.pressure_at", expected="'bottomhole' or 'surface'")
+        if (self.pressure_above is not None and self.pressure_below is not None
+                and self.pressure_below >= self.pressure_above):
+            raise InputError("pressure_below must be lower than pressure_above",
+                             key=f"{k}.pressure_below",
+                             expected=f"a pressure < {self.pressure_above:g} Pa")
+
+    def _require_end(self, *extra: Any) -> None:
+        conds = (self.duration, self.pressure_above, self.pressure_below, *extra)
+        if all(c is None for c in conds):
+            raise InputError("phase has no end condition", key=f"{self.kind}",
+                             expected="duration, volume, pressure_above or pressure_below")
+
+    @property
+    def label(self) -> str:
+        """``name`` or the phase kind."""
+        return self.name or self.kind
+
+    @property
+    def volume_target(self) -> float | None:
+        """Volume end condition [m^3] (pumped or returned), None if there is none."""
+        return getattr(self, "volume", None)
+
+
+@dataclass(frozen=True)
+class Pump(_PhaseBase):
+    """Pump into the well at a constant or stepped rate.
+
+    Parameters
+    ----------
+    rate : float, optional
+        Constant pump rate [m^3/s] (> 0). Exactly one of ``rate`` / ``steps``.
+    steps : sequence of (duration, rate), optional
+        Stepped rate: ``rate_i`` [m^3/s] for ``duration_i`` [s], in order. Without an explicit
+        ``duration`` the phase lasts the sum of the steps; a longer ``duration`` keeps the
+        last rate.
+    volume : float, optional
+        End when this volume [m^3] has been pumped in the phase.
+    duration, pressure_above, pressure_below, pressure_at, name
+        See the module docstring.
+    """
+
+    kind: ClassVar[str] = "pump"
+    rate: float | None = None
+    steps: tuple[tuple[float, float], ...] | None = None
+    volume: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.steps is not None:
+            try:
+                steps = tuple((float(d), float(r)) for d, r in self.steps)
+            except (TypeError, ValueError):
+                raise InputError("steps must be a list of (duration, rate) pairs",
+                                 key="pump.steps", expected="[(s, m^3/s), ...]") from None
+            object.__setattr__(self, "steps", steps)
+        if (self.rate is None) == (self.steps is None):
+            raise InputError("give exactly one of rate and steps", key="pump.rate",
+                             expected="a constant rate or a list of (duration, rate) steps")
+        if self.rate is not None:
+            _check("pump.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True)
+        else:
+            if not self.steps:
+                raise InputError("steps is empty", key="pump.steps",
+                                 expected="at least one (duration, rate) pair")
+            for i, (d, r) in enumerate(self.steps):
+                _check(f"pump.steps[{i}].duration", d, lo=0.0, hi=_MAX_DURATION, lo_open=True)
+                _check(f"pump.steps[{i}].rate", r, lo=0.0, hi=_MAX_RATE)
+        _check("pump.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
+               allow_none=True)
+        self._validate_common()
+        self._require_end(self.volume, self.steps)
+
+    @property
+    def max_duration(self) -> float | None:
+        """Duration limit [s]: ``duration``, else the sum of the steps, else None."""
+        if self.duration is not None:
+            return float(self.duration)
+        if self.steps is not None:
+            return math.fsum(d for d, _ in self.steps)
+        return None
+
+    def rate_at(self, tau: float) -> float:
+        """Pump rate [m^3/s] at time ``tau`` [s] into the phase (right-continuous)."""
+        if self.rate is not None:
+            return float(self.rate)
+        assert self.steps is not None
+        acc = 0.0
+        for d, r in self.steps:
+            acc += d
+            if tau < acc:
+                return r
+        return self.steps[-1][1]
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times [s] into the phase where the rate changes (step boundaries)."""
+        if self.steps is None:
+            return ()
+        out, acc = [], 0.0
+        for d, _ in self.steps[:-1]:
+            acc += d
+            out.append(acc)
+        return tuple(out)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ShutIn(_PhaseBase):
+    """Well closed at surface: no pumping, no returns."""
+
+    kind: ClassVar[str] = "shut_in"
+
+    def __post_init__(self) -> None:
+        self._validate_common()
+        self._require_end()
+
+    @property
+    def max_duration(self) -> float | None:
+        """Duration limit [s] or None."""
+        return None if self.duration is None else float(self.duration)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Flowback(_PhaseBase):
+    """Return through a fixed surface choke, ``Q = zeta sqrt(p_choke - p_atm)``.
+
+    Parameters
+    ----------
+    zeta : float, optional
+        Choke coefficient [m^3 s^-1 Pa^-1/2].
+    initial_rate : float, optional
+        Return rate [m^3/s] at the start of the phase; the simulator calibrates ``zeta`` from
+        it and the surface pressure then. Exactly one of ``zeta`` / ``initial_rate``.
+    volume : float, optional
+        End when this volume [m^3] has returned in the phase.
+    """
+
+    kind: ClassVar[str] = "flowback"
+    zeta: float | None = None
+    initial_rate: float | None = None
+    volume: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.zeta is None) == (self.initial_rate is None):
+            raise InputError("give exactly one of zeta and initial_rate", key="flowback.zeta",
+                             expected="a choke coefficient or an initial return rate")
+        _check("flowback.zeta", self.zeta, lo=0.0, hi=1e-2, lo_open=True, allow_none=True)
+        _check("flowback.initial_rate", self.initial_rate, lo=0.0, hi=_MAX_RATE, lo_open=True,
+               allow_none=True)
+        _check("flowback.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
+               allow_none=True)
+        self._validate_common()
+        self._require_end(self.volume)
+
+    @property
+    def max_duration(self) -> float | None:
+        """Duration limit [s] or None."""
+        return None if self.duration is None else float(self.duration)
+
+
+@dataclass(frozen=True)
+class Bleed(_PhaseBase):
+    """Return at a constant rate (bleed-off).
+
+    Parameters
+    ----------
+    rate : float
+        Return rate [m^3/s] (> 0).
+    volume : float, optional
+        End when this volume [m^3] has returned in the phase.
+    """
+
+    kind: ClassVar[str] = "bleed"
+    rate: float = 0.0
+    volume: float | None = None
+
+    def __post_init__(self) -> None:
+        _check("bleed.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True)
+        _check("bleed.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
+               allow_none=True)
+        self._validate_common()
+        self._require_end(self.volume)
+
+    @property
+    def max_duration(self) -> float | None:
+        """Duration limit [s] or None."""
+        return None if self.duration is None else float(self.duration)
+
+
+Phase = Union[Pump, ShutIn, Flowback, Bleed]
+_KINDS: dict[str, type] = {"pump": Pump, "shut_in": ShutIn, "shutin": ShutIn,
+                           "shut-in": ShutIn, "flowback": Flowback, "flow_back": Flowback,
+                           "bleed": Bleed}
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A test program: ``phases`` run ``cycles`` times.
+
+    Parameters
+    ----------
+    phases : sequence of Phase
+        The phases in order (any number of XLOT cycles can be written out here).
+    cycles : int
+        How many times to run the list (default 1).
+    """
+
+    phases: tuple[Phase, ...]
+    cycles: int = 1
+
+    def __post_init__(self) -> None:
+        phases = tuple(self.phases) if isinstance(self.phases, Sequence) else None
+        if not phases:
+            raise InputError("schedule has no phases", key="schedule.phases",
+                             expected="at least one pump/shut_in/flowback/bleed phase")
+        for i, ph in enumerate(phases):
+            if not isinstance(ph, (Pump, ShutIn, Flowback, Bleed)):
+                raise InputError(f"not a phase: {ph!r}", key=f"schedule.phases[{i}]",
+                                 expected="Pump, ShutIn, Flowback or Bleed")
+        if isinstance(self.cycles, bool) or not isinstance(self.cycles, int) or not (
+                1 <= self.cycles <= 1000):
+            raise InputError(f"value {self.cycles!r} is out of range", key="schedule.cycles",
+                             expected="an integer in [1, 1000]")
+        object.__setattr__(self, "phases", phases)
+
+    def expanded(self) -> tuple[tuple[int, Phase], ...]:
+        """All phases in run order as ``(cycle_number, phase)``; cycles are 1-based."""
+        out: list[tuple[int, Phase]] = []
+        cyc = 0
+        prev: Phase | None = None
+        for _ in range(self.cycles):
+            for ph in self.phases:
+                if cyc == 0 or (isinstance(ph, Pump) and not isinstance(prev, Pump)):
+                    cyc += 1
+                out.append((cyc, ph))
+                prev = ph
+        return tuple(out)
+
+    def __iter__(self) -> Iterator[tuple[int, Phase]]:
+        return iter(self.expanded())
+
+    @property
+    def n_cycles(self) -> int:
+        """Number of XLOT cycles in the expanded program."""
+        return self.expanded()[-1][0]
+
+    @property
+    def n_phases(self) -> int:
+        """Number of phases in the expanded program."""
+        return len(self.phases) * self.cycles
+
+    # ------------------------------------------------------------------ dict / TOML
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, key: str = "schedule") -> Schedule:
+        """Build from a mapping (a TOML ``[schedule]`` table), field units allowed.
+
+        Layout::
+
+            cycles = 2                        # optional, default 1
+            [[schedule.phase]]                # or "phases"
+            kind = "pump"                     # pump | shut_in | flowback | bleed
+            rate = "500 l/min"                # numbers are taken as SI
+            volume = "1.5 m3"
+            pressure_above = "40 MPa"
+            [[schedule.phase]]
+            kind = "pump"
+            steps = [["2 min", "200 l/min"], ["3 min", "500 l/min"]]
+            [[schedule.phase]]
+            kind = "flowback"
+            initial_rate = "200 l/min"        # or zeta = 1.3e-6 (SI)
+            pressure_below = "27 MPa"
+            pressure_at = "bottomhole"        # or "surface"
+
+        Raises
+        ------
+        InputError
+            Naming the offending key, e.g. ``schedule.phase[2].rate``.
+        """
+        if not isinstance(data, Mapping):
+            raise InputError("must be a table", key=key, expected="a mapping with 'phase'")
+        allowed = {"phase", "phases", "cycles"}
+        for k in data:
+            if k not in allowed:
+                raise InputError(f"unknown key {k!r}", key=f"{key}.{k}",
+                                 expected=", ".join(sorted(allowed)))
+        raw = data.get("phase", data.get("phases"))
+        if not isinstance(raw, Sequence) or isinstance(raw, (str, bytes)) or not raw:
+            raise InputError("missing or empty phase list", key=f"{key}.phase",
+                             expected="a list of phase tables")
+        phases = [_phase_from_dict(p, f"{key}.phase[{i}]") for i, p in enumerate(raw)]
+        cycles = data.get("cycles", 1)
+        if isinstance(cycles, float) and cycles.is_integer():
+            cycles = int(cycles)
+        try:
+            return cls(tuple(phases), cycles)
+        except InputError as exc:
+            raise _rekey(exc, key, "schedule") from None
+
+
+_NUM_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def parse_quantity(value: Any, kind: str, *, key: str) -> float:
+    """A scalar in SI from a number (taken as SI) or a ``"value unit"`` string.
+
+    Parameters
+    ----------
+    value : float or str
+        E.g. ``0.008``, ``"500 l/min"``, ``"3 bpm"``, ``"40 MPa"``, ``"10 min"``.
+    kind : str
+        Expected dimension: ``rate``, ``volume``, ``pressure``, ``time``, ``length``, ...
+    key : str
+        Reported in errors.
+
+    Raises
+    ------
+    InputError
+        If the string cannot be read or has the wrong dimension.
+    """
+    if isinstance(value, bool):
+        raise InputError(f"must be a {kind}, got {value!r}", key=key)
+    if isinstance(value, (int, float)):
+        return float(value)
+    if not isinstance(value, str):
+        raise InputError(f"must be a number or a 'value unit' string, got {value!r}", key=key,
+                         expected=f"a {kind}, e.g. {_EXAMPLES.get(kind, '1.0')!r}")
+    m = _NUM_UNIT.match(value)
+    if not m:
+        raise InputError(f"cannot read {value!r}", key=key,
+                         expected=f"a {kind}, e.g. {_EXAMPLES.get(kind, '1.0')!r}")
+    num, unit = float(m.group(1)), m.group(2)
+    if not unit:
+        return num
+    pu = parse_unit(unit, key=key)
+    if not pu.is_a(kind):
+        raise InputError(f"unit {unit!r} is not a {kind} unit", key=key,
+                         expected=f"a {kind}, e.g. {_EXAMPLES.get(kind, '1.0')!r}")
+    return float(to_si([num], pu)[0])
+
+
+_EXAMPLES = {"rate": "500 l/min", "volume": "1.5 m3", "pressure": "40 MPa",
+             "time": "10 min", "length": "2000 m"}
+
+_FIELDS: dict[type, dict[str, str | None]] = {
+    Pump: {"rate": "rate", "volume": "volume"},
+    ShutIn: {},
+    Flowback: {"zeta": None, "initial_rate": "rate", "volume": "volume"},
+    Bleed: {"rate": "rate", "volume": "volume"},
+}
+_COMMON = {"duration": "time", "pressure_above": "pressure", "pressure_below": "pressure"}
+
+
+def _rekey(exc: InputError, prefix: str, old: str) -> InputError:
+    """The same error with key ``old...`` moved under ``prefix`` (``pump.rate`` ->
+    ``schedule.phase[0].rate``)."""
+    k = exc.key or ""
+    if k == old or k.startswith(old + ".") or k.startswith(old + "["):
+        k = prefix + k[len(old):]
+    return InputError(exc.message, file=exc.file, line=exc.line, key=k,
+                      expected=exc.expected)
+
+
+def _phase_from_dict(d: Any, key: str) -> Phase:
+    if not isinstance(d, Mapping):
+        raise InputError("must be a table", key=key, expected="a phase table with 'kind'")
+    kind = str(d.get("kind", "")).strip().lower()
+    cls = _KINDS.get(kind)
+    if cls is None:
+        raise InputError(f"unknown phase kind {d.get('kind')!r}", key=f"{key}.kind",
+                         expected="pump, shut_in, flowback or bleed")
+    spec = {**_FIELDS[cls], **_COMMON}
+    kw: dict[str, Any] = {}
+    for k, v in d.items():
+        if k == "kind":
+            continue
+        if k == "name":
+            kw["name"] = str(v)
+        elif k == "pressure_at":
+            kw["pressure_at"] = str(v).strip().lower()
+        elif k == "steps" and cls is Pump:
+            if not isinstance(v, Sequence) or isinstance(v, str):
+                raise InputError("must be a list of [duration, rate] pairs",
+                                 key=f"{key}.steps", expected='[["2 min", "200 l/min"], ...]')
+            steps = []
+            for i, s in enumerate(v):
+                if isinstance(s, Mapping):
+                    dur, rate = s.get("duration"), s.get("rate")
+                elif isinstance(s, Sequence) and not isinstance(s, str) and len(s) == 2:
+                    dur, rate = s
+                else:
+                    raise InputError("must be a [duration, rate] pair",
+                                     key=f"{key}.steps[{i}]",
+                                     expected='["2 min", "200 l/min"]')
+                steps.append((parse_quantity(dur, "time", key=f"{key}.steps[{i}].duration"),
+                              parse_quantity(rate, "rate", key=f"{key}.steps[{i}].rate")))
+            kw["steps"] = tuple(steps)
+        elif k in spec:
+            dim = spec[k]
+            kw[k] = float(v) if dim is None and not isinstance(v, str) else (
+                parse_quantity(v, dim or "dimensionless", key=f"{key}.{k}"))
+        else:
+            raise InputError(f"unknown key {k!r} for a {cls.kind} phase", key=f"{key}.{k}",
+                             expected=", ".join(sorted([*spec, "name", "pressure_at"]
+                                                       + (["steps"] if cls is Pump else []))))
+    try:
+        return cls(**kw)
+    except InputError as exc:
+        raise _rekey(exc, key, cls.kind) from None
