@@ -13,7 +13,7 @@ import sys
 import click
 
 from xlotkit import __version__
-from xlotkit.errors import XlotkitError
+from xlotkit.errors import InputError, XlotkitError
 
 __all__ = ["main"]
 
@@ -39,3 +39,186 @@ def _friendly_errors(func):
 @click.version_option(__version__, prog_name="xlotkit")
 def main() -> None:
     """Simulate and interpret extended leak-off tests (XLOT)."""
+
+
+# ====================================================================== inspect
+def _fmt_clock(record, t: float) -> str:
+    ts = record.time_at(t)
+    return ts.strftime("%H:%M:%S") if ts is not None else "-"
+
+
+def _fmt_elapsed(seconds: float) -> str:
+    s = int(round(seconds))
+    sign = "-" if s < 0 else ""
+    s = abs(s)
+    return f"{sign}{s // 3600:d}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+def _bar(pa: float) -> float:
+    from xlotkit.units import from_si
+
+    return float(from_si([pa], "bar")[0])
+
+
+def _read_one(path: str):
+    """Read one log; a reader failing on garbage still gives one clear line."""
+    from xlotkit.interpret.io import read_log
+
+    try:
+        return read_log(path)
+    except XlotkitError:
+        raise
+    except (ValueError, IndexError, KeyError) as exc:
+        raise InputError(f"cannot read log: {exc}", file=path) from exc
+
+
+def _records(logs: list[str]) -> list[tuple[list[str], object]]:
+    """The records to inspect: a surface + downhole pair merged, otherwise one per log.
+
+    Two logs are a pair when one is a cementing-unit (surface) record and the other a
+    downhole gauge record; any other combination is inspected log by log.
+    """
+    from xlotkit.interpret.io import merge_surface_downhole
+
+    recs = [_read_one(p) for p in logs]
+    kinds = [r.reference.kind for r in recs]
+    if len(recs) == 2 and sorted(kinds) == ["downhole", "surface"]:
+        s, d = (recs[0], recs[1]) if kinds[0] == "surface" else (recs[1], recs[0])
+        return [(list(logs), merge_surface_downhole(s, d)[0])]
+    return [([p], r) for p, r in zip(logs, recs)]
+
+
+def _as_json(paths, record, seg) -> dict:
+    def phase(ph):
+        return {
+            "kind": ph.kind,
+            "start_s": round(ph.t_start, 3),
+            "end_s": round(ph.t_end, 3),
+            "duration_s": round(ph.duration, 3),
+            "pumped_m3": round(ph.pumped_m3, 4),
+            "returned_m3": round(ph.returned_m3, 4),
+            "peak_pressure_bar": round(_bar(ph.peak_pressure), 2),
+        }
+
+    out = {
+        "files": [str(p) for p in paths],
+        "reference": record.reference.describe(),
+        "start_time": record.start_time.isoformat() if record.start_time else None,
+        "used_rate": seg.used_rate,
+    }
+    if "clock_offset_s" in record.meta:
+        out["clock_offset_s"] = round(float(record.meta["clock_offset_s"]), 2)
+    out["cycles"] = [
+        {
+            "index": c.index,
+            "kind": c.kind,
+            "start_s": round(c.t_start, 3),
+            "end_s": round(c.t_end, 3),
+            "start_time": (record.time_at(c.t_start).isoformat()
+                           if record.start_time else None),
+            "peak_pressure_bar": round(_bar(c.peak_pressure), 2),
+            "pumped_m3": round(c.pumped_m3, 4),
+            "returned_m3": round(c.returned_m3, 4),
+            "reason": c.reason,
+            "phases": [phase(ph) for ph in c.phases],
+        }
+        for c in seg.cycles
+    ]
+    out["notes"] = list(seg.notes)
+    return out
+
+
+def _as_table(paths, record, seg) -> str:
+    from pathlib import Path
+
+    lines = [", ".join(Path(p).name for p in paths)]
+    lines.append(f"  pressure reference: {record.reference.describe()}"
+                 + ("" if not record.reference.absolute else "; pressures below in bar abs"))
+    if record.start_time is not None:
+        lines.append(f"  record start: {record.start_time:%Y-%m-%d %H:%M:%S}")
+    if "clock_offset_s" in record.meta:
+        unc = record.meta.get("clock_offset_uncertainty_s")
+        lines.append(f"  merged: downhole clock + {record.meta['clock_offset_s']:.1f} s"
+                     + (f" (± {unc:.1f} s)" if unc is not None else "")
+                     + " = surface clock")
+    lines.append("  phases from " + ("the pump rate" if seg.used_rate else "pressure alone"))
+    if not seg.cycles:
+        lines.append("  no cycles found")
+        return "\n".join(lines)
+    head = (f"  {'#':>2} {'kind':<12} {'start':>8} {'elapsed':>8} {'end':>8} {'duration':>8} "
+            f"{'peak bar':>8} {'pumped m3':>9} {'return m3':>9}")
+    lines.append(head)
+    for c in seg.cycles:
+        lines.append(
+            f"  {c.index:>2} {c.kind:<12} {_fmt_clock(record, c.t_start):>8} "
+            f"{_fmt_elapsed(c.t_start):>8} {_fmt_clock(record, c.t_end):>8} "
+            f"{_fmt_elapsed(c.duration):>8} {_bar(c.peak_pressure):>8.1f} "
+            f"{c.pumped_m3:>9.3f} {c.returned_m3:>9.3f}")
+        for ph in c.phases:
+            lines.append(
+                f"     {'- ' + ph.kind:<12} {_fmt_clock(record, ph.t_start):>8} "
+                f"{_fmt_elapsed(ph.t_start):>8} {_fmt_clock(record, ph.t_end):>8} "
+                f"{_fmt_elapsed(ph.duration):>8} {_bar(ph.peak_pressure):>8.1f} "
+                f"{ph.pumped_m3:>9.3f} {ph.returned_m3:>9.3f}")
+        lines.append(f"     reason: {c.reason}")
+    return "\n".join(lines)
+
+
+def _plot_paths(plot: str, n: int) -> list[str]:
+    """One plot file per inspected record: ``FILE`` or ``STEM-1.SUFFIX``, ``STEM-2...``."""
+    from pathlib import Path
+
+    if n == 1:
+        return [plot]
+    p = Path(plot)
+    return [str(p.with_name(f"{p.stem}-{k + 1}{p.suffix}")) for k in range(n)]
+
+
+@main.command("inspect")
+@click.argument("logs", nargs=-1, required=True, metavar="LOG [LOG ...]")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print one JSON object instead of the table.")
+@click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
+              metavar="FILE", help="Write an overview plot (PNG, PDF, SVG by suffix).")
+@_friendly_errors
+def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None) -> None:
+    """Find the cycles (line test, casing test, LOT, XLOT) and phases in field logs.
+
+    A cementing-unit (surface) log and a downhole-gauge log of the same test are merged
+    onto one clock; other logs are inspected one by one. Pressures are shown in bar (on the
+    record's reference: the downhole gauge for a merged pair), volumes in m3.
+
+    With --json a single log or merged pair prints one object with top-level "cycles"; several
+    independent logs print {"logs": [object, ...]}. With several independent logs and --plot
+    FILE, one plot per log is written as FILE's stem plus "-1", "-2", ....
+    """
+    import json
+    from pathlib import Path
+
+    for p in logs:
+        path = Path(p)
+        if not path.exists():
+            raise InputError("no such file", file=p)
+        if path.is_dir():
+            raise InputError("is a directory, expected a log file", file=p)
+    if plot is not None:
+        parent = Path(plot).resolve().parent
+        if not parent.is_dir():
+            raise InputError("the directory for the plot does not exist", file=plot)
+
+    from xlotkit.interpret.phases import segment
+
+    results = [(g, r, segment(r)) for g, r in _records(list(logs))]
+
+    if plot is not None:
+        from xlotkit.interpret.plots.record import plot_record
+
+        for (g, record, seg), target in zip(results, _plot_paths(plot, len(results))):
+            plot_record(record, seg, path=target)
+
+    if as_json:
+        objs = [_as_json(g, r, s) for g, r, s in results]
+        obj = objs[0] if len(objs) == 1 else {"logs": objs}
+        click.echo(json.dumps(obj, indent=2))
+    else:
+        click.echo("\n\n".join(_as_table(g, r, s) for g, r, s in results))
