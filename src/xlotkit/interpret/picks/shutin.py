@@ -1,0 +1,640 @@
+"""Fracture closure pressure (FCP) from a shut-in decline, by five methods.
+
+All methods work on the cycle's shut-in phase (the first ``shut_in`` phase after the cycle's
+last pump phase) and leave out the rapid drop right after pump stop (pipe friction, water
+hammer): fits start where the early decline line of
+:func:`~xlotkit.interpret.picks.pressurisation.early_decline` starts, so closure is never picked
+inside the pump-off drop.
+
+Methods (``SHUTIN_METHODS``):
+
+``tangent``
+    Intersection of the early-decline tangent (the ISIP line) with a line through the late,
+    stabilised decline, on p vs t (thesis Fig. 3.1 / C.6).
+``sqrt_t``
+    First departure from the straight line of p vs ``sqrt(dt)`` (formation linear flow).
+``g_function``
+    First departure from the straight line of p vs Nolte's G (``G dP/dG`` on a line through the
+    origin), with the decline-type diagnosis.
+``bilinear``
+    Haimson's bilinear method: ``dp/dt`` vs p is two straight lines, closure where they meet.
+``compliance``
+    McClure et al. (2016): closure where the system stiffness starts to rise, i.e. where
+    ``|dP/dG|`` starts to increase after its minimum (the fracture walls come into contact).
+
+Closure in the record
+---------------------
+When the decline never leaves its straight line on both the sqrt(t) and the G plot (no
+departure with statistical significance), the record does not reach closure; every method then
+returns ``Pick.not_found`` with a message starting ``"no closure in the record"``.
+
+Derivatives are local least-squares slopes over windows of constant width in log time
+(Bourdet-style smoothing, :func:`~xlotkit.interpret.picks.pressurisation.local_fit`), never
+sample-to-sample differences, because field pressures are quantised to 1 bar.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from xlotkit.interpret.phases import Cycle
+from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect
+from xlotkit.interpret.picks.pressurisation import (
+    MIN_LINE_POINTS,
+    EarlyDecline,
+    _user_stretch,
+    departure_pick,
+    early_decline,
+    find_departure,
+    linear_stretch,
+    local_fit,
+    noise_level,
+    pump_phases,
+    quality,
+    shutin_phase,
+    shutin_time,
+)
+from xlotkit.interpret.picks.types import Pick
+from xlotkit.record import Record
+
+__all__ = [
+    "SHUTIN_METHODS",
+    "g_function",
+    "nolte_g",
+    "pick_fcp_bilinear",
+    "pick_fcp_compliance",
+    "pick_fcp_g_function",
+    "pick_fcp_sqrt_t",
+    "pick_fcp_tangent",
+    "shutin_curves",
+]
+
+#: Fewest post-drop samples a shut-in must have to be analysed.
+MIN_SHUTIN_POINTS = 20
+
+#: Half-width of the Bourdet-style derivative window in ln(x).
+DERIVATIVE_L = 0.1
+
+
+# ===================================================================== G-function
+def nolte_g(dtd, alpha: float = 1.0):
+    """Nolte's g-function ``g(dtD, alpha)`` of dimensionless shut-in time ``dtD = dt / t_p``.
+
+    ``alpha = 1`` (fracture area growing linearly in time, upper bound, the usual field choice):
+    ``g = 4/3 [(1 + dtD)^1.5 - dtD^1.5]``, ``g0 = 4/3``.
+    ``alpha = 1/2``: ``g = (1 + dtD) asin((1 + dtD)^-1/2) + dtD^1/2``, ``g0 = pi/2``.
+    """
+    d = np.clip(np.asarray(dtd, float), 0.0, None)
+    if alpha == 1.0:
+        return 4.0 / 3.0 * ((1.0 + d) ** 1.5 - d**1.5)
+    if alpha == 0.5:
+        return (1.0 + d) * np.arcsin((1.0 + d) ** -0.5) + np.sqrt(d)
+    raise ValueError("alpha must be 0.5 or 1")
+
+
+def g_function(dt, t_pump: float, alpha: float = 1.0):
+    """Nolte's G-function ``G = 4/pi [g(dt/t_p) - g(0)]`` of shut-in time ``dt`` [s].
+
+    ``t_pump`` is the pumping time [s]. With Carter leak-off and constant fracture area the
+    pressure before closure is linear in G: ``p = ISIP - m G``.
+    """
+    g0 = 4.0 / 3.0 if alpha == 1.0 else np.pi / 2.0
+    return 4.0 / np.pi * (nolte_g(np.asarray(dt, float) / t_pump, alpha) - g0)
+
+
+# ===================================================================== shared data
+@dataclass(frozen=True)
+class _Shut:
+    t: np.ndarray           # shut-in sample times [s]
+    p: np.ndarray           # pressures [Pa]
+    dt: np.ndarray          # time since shut-in [s]
+    t_s: float              # shut-in time [s]
+    j0: int                 # first sample after the rapid drop
+    t_pump: float           # pumping time of the cycle [s]
+    isip: float             # ISIP [Pa]
+    sigma: float            # noise [Pa]
+    early: EarlyDecline | None
+
+
+def _isip_value(isip: Any) -> float | None:
+    if isip is None:
+        return None
+    if isinstance(isip, Pick):
+        return isip.value
+    return float(isip)
+
+
+def _prepare(record: Record, cycle: Cycle, method: str, isip: Any
+             ) -> tuple[_Shut | None, Pick | None]:
+    """Shut-in data with the rapid drop located, or a not-found pick saying why."""
+    shut = shutin_phase(cycle)
+    if shut is None:
+        return None, Pick.not_found("FCP", method, "the cycle has no shut-in after pumping")
+    t = record.t[shut.i0:shut.i1]
+    p = record.pressure[shut.i0:shut.i1]
+    if t.size < MIN_SHUTIN_POINTS:
+        return None, Pick.not_found("FCP", method, f"shut-in too short ({t.size} samples)")
+    t_s = shutin_time(record, cycle, shut)
+    ed = early_decline(t, p, t_s)
+    j0 = ed.j0 if ed is not None else 0
+    if isinstance(isip, Pick) and isip.window is not None:
+        j0 = max(j0, int(np.searchsorted(t, isip.window[0])))
+    if t.size - j0 < MIN_SHUTIN_POINTS:
+        return None, Pick.not_found("FCP", method, f"shut-in too short after the pump-off drop "
+                                    f"({t.size - j0} samples)")
+    pumps = pump_phases(cycle)
+    t_pump = max(t_s - pumps[0].t_start, 1.0)
+    iv = _isip_value(isip)
+    if iv is None:
+        iv = ed.fit.intercept if ed is not None else float(p[j0])
+    return _Shut(t, p, t - t_s, t_s, j0, t_pump, float(iv), noise_level(p), ed), None
+
+
+def _closure_gate(sh: _Shut, alpha: float) -> str | None:
+    """Message when the decline stays on its straight line on both sqrt(t) and G plots."""
+    sl = slice(sh.j0, None)
+    held = []
+    for name, x in (("sqrt(t)", np.sqrt(sh.dt[sl])), ("G", g_function(sh.dt[sl], sh.t_pump,
+                                                                       alpha))):
+        d = find_departure(x, sh.p[sl], slope_sign=-1, noise=sh.sigma, prefer_early=True)
+        if d is not None and d.j_dep is None:
+            held.append(name)
+    if held:
+        return (f"no closure in the record: the decline stays on its straight line on the "
+                f"{' and '.join(held)} plot to the end of the shut-in "
+                f"({sh.dt[-1]:.0f} s after pump stop)")
+    return None
+
+
+def _finish(pick: Pick, sh: _Shut, extra: dict[str, Any]) -> Pick:
+    d = dict(pick.details)
+    d.update(extra)
+    d.setdefault("isip", sh.isip)
+    d.setdefault("t_shut_in", sh.t_s)
+    d.setdefault("t_pump", sh.t_pump)
+    d.setdefault("drop_samples_skipped", sh.j0)
+    return Pick(name="FCP", method=pick.method, value=pick.value, low=pick.low, high=pick.high,
+                t=pick.t, window=pick.window, quality=pick.quality, message=pick.message,
+                details=d)
+
+
+def _inside(sh: _Shut, value: float | None) -> bool:
+    """Closure must lie inside the decline: below the ISIP, above the last pressure."""
+    if value is None or not np.isfinite(value):
+        return False
+    return float(np.min(sh.p[sh.j0:])) - 3 * sh.sigma <= value <= sh.isip + 3 * sh.sigma
+
+
+def _pressure_at(sh: _Shut, tt: float) -> float:
+    """Smoothed shut-in pressure at time ``tt`` [s] (local line over +-5 % of dt)."""
+    dt = max(tt - sh.t_s, 1e-9)
+    sel = (np.abs(sh.dt - dt) <= max(0.05 * dt, 2.0)) & (np.arange(sh.t.size) >= sh.j0)
+    if sel.sum() >= 3:
+        return float(fit_line(sh.dt[sel], sh.p[sel])(dt))
+    return float(np.interp(tt, sh.t, sh.p))
+
+
+# ===================================================================== straight-line methods
+def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Callable,
+                          x_name: str, *, window, isip, alpha: float = 1.0) -> tuple[Pick, Any]:
+    sh, nf = _prepare(record, cycle, method, isip)
+    if sh is None:
+        return nf, None
+    if window is None:
+        gate = _closure_gate(sh, alpha)
+        if gate:
+            return _finish(Pick.not_found("FCP", method, gate), sh, {}), sh
+    sl = slice(sh.j0, None)
+    x = to_x(sh)[sl]
+    stretch = _user_stretch(sh.t[sl], window)
+    pick = departure_pick("FCP", method, x, sh.p[sl], sh.t[sl], slope_sign=-1,
+                          stretch=stretch, noise=sh.sigma, x_name=x_name,
+                          not_found_msg="no closure in the record", prefer_early=True)
+    if pick.found and not _inside(sh, pick.value):
+        pick = Pick.not_found("FCP", method, "no closure in the record: the departure lies "
+                              "outside the decline", window=pick.window, details=pick.details)
+    return _finish(pick, sh, {}), sh
+
+
+def pick_fcp_sqrt_t(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
+                    isip: Pick | float | None = None) -> Pick:
+    """FCP as the first departure from the straight line of p vs ``sqrt(dt)``.
+
+    While fluid leaks off by linear flow through the open fracture faces the pressure falls
+    linearly in the square root of shut-in time, ``p = p_1 - m sqrt(dt)``; the derivative
+    ``dP/dsqrt(t)`` is constant. Closure is the first significant departure, either side
+    (stiffening: steeper; reduced leak-off: flatter).
+
+    Parameters
+    ----------
+    record, cycle
+        Data and the cycle whose shut-in is analysed.
+    window : (t0, t1), optional
+        Elapsed-time window [s] of the straight stretch (overrides the automatic stretch).
+    isip : Pick or float, optional
+        ISIP [Pa] (its window's start also marks the end of the pump-off drop).
+
+    Returns
+    -------
+    Pick
+        ``name="FCP"``, ``method="sqrt_t"``; ``details["slope"]`` is ``dP/dsqrt(t)``
+        [Pa/s^0.5], ``details["sqrt_t_pick"]`` the ``sqrt(dt)`` of closure.
+    """
+    pick, sh = _straight_line_method(record, cycle, "sqrt_t", lambda s: np.sqrt(s.dt),
+                                     "sqrt_t", window=window, isip=isip)
+    return pick
+
+
+def pick_fcp_g_function(record: Record, cycle: Cycle, *,
+                        window: tuple[float, float] | None = None,
+                        isip: Pick | float | None = None, alpha: float = 1.0) -> Pick:
+    """FCP from the G-function plot, with the decline-type diagnosis.
+
+    With Carter leak-off from a fracture of constant area, ``p = ISIP - m G`` before closure
+    (:func:`g_function`), so ``G dP/dG`` lies on a straight line through the origin. Closure is
+    the first significant departure of p from its straight line in G (equivalently of
+    ``G dP/dG`` from the line ``m G``). The diagnosis compares ``|dP/dG|`` before the straight
+    stretch with its slope ``m``:
+
+    * ``normal``: the straight stretch spans the decline up to closure;
+    * ``pressure_dependent_leakoff``: early ``|dP/dG|`` > 1.1 m (``G dP/dG`` humps above the line);
+    * ``height_recession_or_tip_extension``: early ``|dP/dG|`` < 0.9 m (below the line);
+    * ``undetermined``: no straight stretch.
+
+    Parameters
+    ----------
+    alpha : {1, 0.5}
+        Area-growth exponent of Nolte's g-function.
+
+    Returns
+    -------
+    Pick
+        ``name="FCP"``, ``method="g_function"``; ``details["diagnosis"]``, ``details["G_pick"]``
+        (G at closure), ``details["slope"]`` (``dP/dG`` [Pa]).
+    """
+    pick, sh = _straight_line_method(
+        record, cycle, "g_function", lambda s: g_function(s.dt, s.t_pump, alpha), "G",
+        window=window, isip=isip, alpha=alpha)
+    if sh is None:
+        d = dict(pick.details)
+        d["diagnosis"] = "undetermined"
+        return Pick.not_found("FCP", "g_function", pick.message, details=d)
+    diagnosis, why = _diagnose(sh, pick, alpha)
+    d = dict(pick.details)
+    d["diagnosis"] = diagnosis
+    d["alpha"] = alpha
+    msg = f"decline type: {diagnosis.replace('_', ' ')} ({why})"
+    if pick.message:
+        msg = pick.message + "; " + msg
+    return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
+                high=pick.high, t=pick.t, window=pick.window, quality=pick.quality, message=msg,
+                details=d)
+
+
+def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
+    d = pick.details
+    if "slope" not in d or pick.window is None:
+        return "undetermined", "no straight stretch on the G plot"
+    m = -float(d["slope"])
+    if not m > 0:
+        return "undetermined", "pressure not declining on the G plot"
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    t = sh.t[sl]
+    a = int(np.searchsorted(t, pick.window[0]))
+    j_end = int(np.searchsorted(t, pick.t)) if pick.found else G.size
+    dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
+                        min_points=5)
+    pre = np.arange(0, a)
+    if pre.size < max(5, 0.05 * max(j_end, 1)):
+        return "normal", "G dP/dG on a straight line through the origin until closure"
+    ratio = float(np.nanmedian(-dpdg[pre])) / m
+    if ratio > 1.1:
+        return "pressure_dependent_leakoff", f"early G dP/dG above the line ({ratio:.2f} m)"
+    if ratio < 0.9:
+        return "height_recession_or_tip_extension", f"early G dP/dG below the line ({ratio:.2f} m)"
+    return "normal", f"early G dP/dG on the line ({ratio:.2f} m)"
+
+
+# ===================================================================== tangent
+def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
+                     isip: Pick | float | None = None,
+                     lines: tuple[tuple[float, float], tuple[float, float]] | None = None
+                     ) -> Pick:
+    """FCP at the intersection of the early and the late decline tangents on p vs t.
+
+    The early tangent is the ISIP line (first smooth decline after the pump-off drop); the late
+    tangent is a line through the stabilised decline, by default the last 30 % of the
+    shut-in, placed just after the knee: starting from the last 30 % of the shut-in, the late
+    line is refitted on ``[t*, 1.5 t*]`` (times since shut-in) around the current intersection
+    ``t*`` until it settles. Closure is the intersection ``(t*, p*)``; ``p*`` is the value. The
+    interval combines the propagated covariance (:func:`~xlotkit.interpret.picks.models.intersect`)
+    with the spread for late windows ``[t*, 1.3 t*]`` / ``[t*, 1.8 t*]`` and a shifted early
+    window.
+
+    Parameters
+    ----------
+    window : (t0, t1), optional
+        Elapsed-time window [s] of the late line.
+    lines : ((t0, t1), (t2, t3)), optional
+        Fixed windows [s] of the early and the late line (override everything).
+    """
+    method = "tangent"
+    sh, nf = _prepare(record, cycle, method, isip)
+    if sh is None:
+        return nf
+    if lines is None:
+        gate = _closure_gate(sh, 1.0)
+        if gate:
+            return _finish(Pick.not_found("FCP", method, gate), sh, {})
+
+    def early_fit(shift: int = 0) -> tuple[LineFit, int, int] | None:
+        if lines is not None:
+            a, b = _user_stretch(sh.t, lines[0])
+        elif sh.early is not None:
+            a, b = sh.early.j0 + shift, sh.early.j1 + shift
+        else:
+            return None
+        if b - a + 1 < 3 or b >= sh.t.size:
+            return None
+        return fit_line(sh.dt[a:b + 1], sh.p[a:b + 1]), a, b
+
+    def late_fit(tol: float) -> tuple[LineFit, int, int] | None:
+        """Late tangent: the longest stretch of stable slope (within ``tol``) on p vs t after
+        the early window -- the "stabilised" decline."""
+        win = lines[1] if lines is not None else window
+        if win is not None:
+            a, b = _user_stretch(sh.t, win)
+            return fit_line(sh.dt[a:b + 1], sh.p[a:b + 1]), a, b
+        if e is None:
+            return None
+        start = e[2] + 1
+        half = 0.04 * float(sh.dt[-1] - sh.dt[start])
+        slopes, _ = local_fit(sh.dt, sh.p, half, min_points=max(5, (sh.t.size - start) // 50))
+        slopes[:start] = np.nan
+        st = linear_stretch(slopes, tol=tol, min_len=MIN_LINE_POINTS, sign=-1, start=start,
+                            x=sh.dt)
+        if st is None:
+            return None
+        a, b = st
+        return fit_line(sh.dt[a:b + 1], sh.p[a:b + 1]), a, b
+
+    e = early_fit()
+    lt = late_fit(0.15)
+    if e is None or lt is None:
+        return _finish(Pick.not_found("FCP", method, "could not fit the early or late tangent"),
+                       sh, {})
+    fe, ea, eb = e
+    fl, la, lb = lt
+    xs, sxs, ys, sys_ = intersect(fe, fl)
+    details = {"early_slope": fe.slope, "early_slope_stderr": fe.slope_stderr,
+               "late_slope": fl.slope, "late_slope_stderr": fl.slope_stderr,
+               "early_window": (float(sh.t[ea]), float(sh.t[eb])),
+               "late_window": (float(sh.t[la]), float(sh.t[lb])),
+               "r2_early": fe.r2, "r2_late": fl.r2}
+    ds = abs(fe.slope - fl.slope)
+    sds = np.hypot(fe.slope_stderr, fl.slope_stderr)
+    if not np.isfinite(xs) or ds <= 3 * np.nan_to_num(sds) or not (
+            sh.dt[eb] <= xs <= sh.dt[lb]) or not _inside(sh, ys):
+        return _finish(Pick.not_found("FCP", method, "no closure in the record: the tangents do "
+                                      "not meet inside the decline", details=details), sh, {})
+    vals = [ys]
+    trial_specs = [(0, 0.1), (0, 0.25), (2, 0.15)] if lines is None else []
+    for shift, frac in trial_specs:
+        e_keep = e
+        e = e2 = early_fit(shift)
+        l2 = late_fit(frac)
+        e = e_keep
+        if e2 is None or l2 is None:
+            continue
+        _, _, y2, _ = intersect(e2[0], l2[0])
+        if np.isfinite(y2) and _inside(sh, y2):
+            vals.append(y2)
+    s = np.nan_to_num(sys_)
+    low, high = min(vals) - s, max(vals) + s
+    details.update({"t_intersection": sh.t_s + xs, "t_intersection_stderr": sxs,
+                    "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
+                    "intersection_stderr": s})
+    q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
+    pick = Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
+                window=(float(sh.t[ea]), float(sh.t[lb])), quality=q, details=details)
+    return _finish(pick, sh, {})
+
+
+# ===================================================================== bilinear (Haimson)
+def _derivative_t(sh: _Shut, L: float = DERIVATIVE_L) -> tuple[np.ndarray, np.ndarray]:
+    """``dp/dt`` [Pa/s] and smoothed p over post-drop samples, window of +-L in ln(dt)."""
+    sl = slice(sh.j0, None)
+    dt = np.maximum(sh.dt[sl], 1e-9)
+    return local_fit(dt, sh.p[sl], L, u=np.log(dt), min_points=5)
+
+
+def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
+                      isip: Pick | float | None = None) -> Pick:
+    """FCP by Haimson's bilinear method: ``dp/dt`` vs p as two lines meeting at closure.
+
+    The pressure-decay rate ``dp/dt`` [Pa/s] (log-time-windowed local slope) is plotted against
+    the smoothed pressure; an open and a closed fracture each give a near-linear relation with
+    a different slope. A continuous two-line (hinge) fit gives the closure pressure as its
+    breakpoint, with the standard error from the fit. The lines must differ significantly
+    (``|s1 - s2| > 3 sigma``) and the record must reach closure.
+
+    Parameters
+    ----------
+    window : (t0, t1), optional
+        Elapsed-time window [s] of the samples used (default all post-drop samples).
+    """
+    method = "bilinear"
+    sh, nf = _prepare(record, cycle, method, isip)
+    if sh is None:
+        return nf
+    gate = _closure_gate(sh, 1.0)
+    if gate:
+        return _finish(Pick.not_found("FCP", method, gate), sh, {})
+    t = sh.t[sh.j0:]
+
+    def run(L: float, cut0: float, cut1: float):
+        dpdt, ps = _derivative_t(sh, L)
+        sel = np.isfinite(dpdt) & np.isfinite(ps)
+        if window is not None:
+            sel &= (t >= window[0]) & (t <= window[1])
+        else:
+            n = t.size
+            idx = np.arange(n)
+            sel &= (idx >= int(cut0 * n)) & (idx < n - int(cut1 * n))
+        if sel.sum() < 2 * MIN_LINE_POINTS:
+            return None
+        try:
+            return fit_hinge(ps[sel], dpdt[sel], min_points=MIN_LINE_POINTS), ps[sel]
+        except (ValueError, TypeError):
+            return None
+
+    base = run(DERIVATIVE_L, 0.0, 0.0)
+    if base is None:
+        return _finish(Pick.not_found("FCP", method, "too few samples for the bilinear fit"),
+                       sh, {})
+    h, ps = base
+    details = {"s_closed": h.s1, "s_open": h.s2, "s_closed_stderr": h.s1_stderr,
+               "s_open_stderr": h.s2_stderr, "dpdt_at_closure": h.y0, "r2": h.r2, "n": h.n}
+    sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
+    if abs(h.s1 - h.s2) <= 3 * sds or not _inside(sh, h.x0):
+        return _finish(Pick.not_found("FCP", method, "no closure in the record: dp/dt vs p is "
+                                      "a single line", details=details), sh, {})
+    vals = [h.x0]
+    if window is None:
+        for L, c0, c1 in ((0.05, 0, 0), (0.2, 0, 0), (DERIVATIVE_L, 0.1, 0), (DERIVATIVE_L, 0, .2)):
+            r = run(L, c0, c1)
+            if r is not None and _inside(sh, r[0].x0):
+                vals.append(r[0].x0)
+    s = np.nan_to_num(h.x0_stderr)
+    low, high = min(vals) - s, max(vals) + s
+    # Time of closure: when the smoothed pressure crossed the breakpoint.
+    _, psm = _derivative_t(sh)
+    k = int(np.argmax(psm <= h.x0)) if np.any(psm <= h.x0) else psm.size - 1
+    details.update({"trial_values": vals, "x0_stderr": s})
+    q = quality(h.r2, h.x0, low, high, h.n)
+    pick = Pick("FCP", method, float(h.x0), float(low), float(high), t=float(t[k]),
+                window=(float(t[0]), float(t[-1])) if window is None else tuple(window),
+                quality=q, details=details)
+    return _finish(pick, sh, {})
+
+
+# ===================================================================== compliance (McClure)
+def pick_fcp_compliance(record: Record, cycle: Cycle, *,
+                        window: tuple[float, float] | None = None,
+                        isip: Pick | float | None = None, alpha: float = 1.0) -> Pick:
+    """FCP by the compliance method (McClure et al. 2016): onset of the stiffness increase.
+
+    While the fracture is open the system compliance is large and ``|dP/dG|`` stays flat (or
+    falls, with pressure-dependent leak-off). When the walls come into contact the compliance
+    drops, the system stiffens and ``|dP/dG|`` rises. ``|dP/dG|`` is a log-G-windowed local
+    slope; from its minimum to its following maximum a hinge is fitted, and closure is the
+    pressure at the hinge's breakpoint ``G_c``. The rise must be significant (hinge slopes differ
+    by > 3 sigma, the later one larger) and the record must reach closure.
+
+    Parameters
+    ----------
+    window : (t0, t1), optional
+        Elapsed-time window [s] of the derivative samples used for the hinge fit.
+    alpha : {1, 0.5}
+        Area-growth exponent of the G-function.
+    """
+    method = "compliance"
+    sh, nf = _prepare(record, cycle, method, isip)
+    if sh is None:
+        return nf
+    gate = _closure_gate(sh, alpha)
+    if gate:
+        return _finish(Pick.not_found("FCP", method, gate), sh, {})
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    p = sh.p[sl]
+    t = sh.t[sl]
+    uG = np.log(np.maximum(G, 1e-12))
+
+    def run(L: float):
+        slope, psm = local_fit(G, p, L, u=uG, min_points=5)
+        d = -slope
+        ok = np.isfinite(d)
+        if window is not None:
+            idx = np.flatnonzero(ok & (t >= window[0]) & (t <= window[1]))
+        else:
+            idx = np.flatnonzero(ok)
+            if idx.size < 2 * MIN_LINE_POINTS:
+                return None
+            # Skip the first ~5 % (derivative windows clipped at the start of the data).
+            idx = idx[idx.size // 20:]
+            # Largest rise of |dP/dG|: maximise d[k] - min(d[:k]) over k.
+            dd = d[idx]
+            runmin = np.minimum.accumulate(dd)
+            kk = int(np.argmax(dd - runmin))
+            jmax = idx[kk]
+            jmin = idx[int(np.argmin(dd[:kk + 1]))]
+            # Include the approach to the minimum so the hinge has a "before" line.
+            span = max(jmax - jmin, MIN_LINE_POINTS)
+            idx = idx[(idx >= jmin - 2 * span) & (idx <= jmax)]
+        if idx.size < 2 * MIN_LINE_POINTS:
+            return None
+        try:
+            h = fit_hinge(G[idx], d[idx], min_points=MIN_LINE_POINTS)
+        except (ValueError, TypeError):
+            return None
+        return h, psm
+
+    base = run(DERIVATIVE_L)
+    if base is None:
+        return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
+                                      "|dP/dG| does not rise after its minimum"), sh, {})
+    h, psm = base
+    details = {"G_pick": h.x0, "G_pick_stderr": h.x0_stderr, "dPdG_at_closure": -h.y0,
+               "s_before": h.s1, "s_after": h.s2, "r2": h.r2, "n": h.n, "alpha": alpha}
+    sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
+    if not (h.s2 - h.s1 > 3 * sds and h.s2 > 0):
+        return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
+                                      "no significant stiffness increase (|dP/dG| does not "
+                                      "rise)",
+                                      details=details), sh, {})
+
+    def p_at(g0: float) -> float:
+        return float(np.interp(g0, G, psm))
+
+    value = p_at(h.x0)
+    vals = [value]
+    for L in (0.05, 0.2):
+        r = run(L)
+        if r is not None and r[0].s2 > r[0].s1:
+            vals.append(p_at(r[0].x0))
+    se = np.nan_to_num(h.x0_stderr)
+    vals += [p_at(h.x0 - se), p_at(h.x0 + se)]
+    vals = [v for v in vals if _inside(sh, v)]
+    if not _inside(sh, value):
+        return _finish(Pick.not_found("FCP", method, "no closure in the record: stiffness rise "
+                                      "outside the decline", details=details), sh, {})
+    low, high = min(vals), max(vals)
+    details["trial_values"] = vals
+    q = quality(h.r2, value, low, high, h.n)
+    pick = Pick("FCP", method, value, float(low), float(high),
+                t=float(np.interp(h.x0, G, t)), window=(float(t[0]), float(t[-1])),
+                quality=q, details=details)
+    return _finish(pick, sh, {})
+
+
+# ===================================================================== curves for plots
+def shutin_curves(record: Record, cycle: Cycle, *, alpha: float = 1.0,
+                  L: float = DERIVATIVE_L) -> dict[str, np.ndarray] | None:
+    """Diagnostic curves of the post-drop shut-in, for plots.
+
+    Returns
+    -------
+    dict or None
+        ``t`` [s], ``dt`` [s], ``p`` [Pa], ``sqrt_t`` [s^0.5], ``dp_dsqrt_t`` [Pa/s^0.5],
+        ``G``, ``dp_dG`` [Pa], ``G_dp_dG`` [Pa], ``dp_dt`` [Pa/s] (log-windowed local slopes);
+        None without a usable shut-in.
+    """
+    sh, _ = _prepare(record, cycle, "curves", None)
+    if sh is None:
+        return None
+    sl = slice(sh.j0, None)
+    dt = np.maximum(sh.dt[sl], 1e-9)
+    p = sh.p[sl]
+    G = g_function(dt, sh.t_pump, alpha)
+    st = np.sqrt(dt)
+    d_st, _ = local_fit(st, p, L / 2, u=np.log(st), min_points=5)
+    d_g, _ = local_fit(G, p, L, u=np.log(np.maximum(G, 1e-12)), min_points=5)
+    d_t, _ = local_fit(dt, p, L, u=np.log(dt), min_points=5)
+    return {"t": sh.t[sl], "dt": dt, "p": p, "sqrt_t": st, "dp_dsqrt_t": d_st, "G": G,
+            "dp_dG": d_g, "G_dp_dG": -G * d_g, "dp_dt": d_t}
+
+
+#: Method name -> pick function.
+SHUTIN_METHODS: dict[str, Callable[..., Pick]] = {
+    "tangent": pick_fcp_tangent,
+    "sqrt_t": pick_fcp_sqrt_t,
+    "g_function": pick_fcp_g_function,
+    "bilinear": pick_fcp_bilinear,
+    "compliance": pick_fcp_compliance,
+}
