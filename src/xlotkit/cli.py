@@ -222,3 +222,193 @@ def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None) -> None:
         click.echo(json.dumps(obj, indent=2))
     else:
         click.echo("\n\n".join(_as_table(g, r, s) for g, r, s in results))
+
+
+# ====================================================================== pick
+def _parse_window(text: str):
+    """``NAME=T0:T1`` or ``CYCLE:NAME=T0:T1`` (times in s from the record start)."""
+    try:
+        key, span = text.split("=", 1)
+        t0, t1 = (float(v) for v in span.split(":", 1))
+    except ValueError:
+        raise InputError(f"cannot read window {text!r}", key="--window",
+                         expected="NAME=T0:T1 or CYCLE:NAME=T0:T1 with times in s") from None
+    if ":" in key:
+        cyc, name = key.split(":", 1)
+        try:
+            return (int(cyc), name), (t0, t1)
+        except ValueError:
+            raise InputError(f"cycle {cyc!r} is not a number", key="--window",
+                             expected="CYCLE:NAME=T0:T1") from None
+    return key, (t0, t1)
+
+
+def _pick_options(windows: tuple[str, ...], methods: tuple[str, ...]):
+    from xlotkit.interpret.picks.core import PickOptions
+
+    kw = {}
+    if windows:
+        kw["windows"] = dict(_parse_window(w) for w in windows)
+    if methods:
+        kw["methods"] = tuple(methods)
+    try:
+        return PickOptions(**kw)
+    except ValueError as exc:
+        raise InputError(str(exc), key="--window/--method") from None
+
+
+def _stress_inputs(tvd, gauge_tvd, mud_density, pore_gradient, sv_gradient, mu):
+    from xlotkit.pipeline import GRAVITY, StressInputs
+
+    p0 = sv = None
+    if pore_gradient is not None or sv_gradient is not None:
+        if tvd is None:
+            raise InputError("needs the target depth", key="--pore-gradient/--sv-gradient",
+                             expected="--tvd METRES as well")
+        if pore_gradient is not None:
+            p0 = pore_gradient * 1000.0 * GRAVITY * tvd
+        if sv_gradient is not None:
+            sv = sv_gradient * 1000.0 * GRAVITY * tvd
+    return StressInputs(target_tvd=tvd, gauge_tvd=gauge_tvd,
+                        mud_density=None if mud_density is None else mud_density * 1000.0,
+                        pore_pressure=p0, sv=sv, mu=mu)
+
+
+def _fmt_bar(p) -> str:
+    if p is None or not p.found:
+        return "-"
+    return f"{p.value / 1e5:.1f}"
+
+
+def _pick_table(label: str, interp) -> str:
+    rp = interp.picks
+    lines = [label, f"  pressure reference: {rp.record.reference.describe()}"]
+    tests = rp.test_cycles
+    if not tests:
+        lines.append("  no LOT/XLOT cycle found")
+    for c in tests:
+        lines.append(f"  cycle {c.index} ({c.kind})  LOP {_fmt_bar(c.get('LOP'))}  "
+                     f"FBP {_fmt_bar(c.get('FBP'))}  Pr {_fmt_bar(c.get('Pr'))}  "
+                     f"FPP {_fmt_bar(c.get('FPP'))}  ISIP {_fmt_bar(c.get('ISIP'))} bar"
+                     + (f"  stiffness {c.stiffness / 1e5:.0f} bar/m3" if c.stiffness else ""))
+        f = c.fcp
+        if f.found:
+            lines.append(f"    FCP {f.value / 1e5:.1f} bar [{(f.low or f.value) / 1e5:.1f} - "
+                         f"{(f.high or f.value) / 1e5:.1f}] ({f.quality}; "
+                         f"{f.details.get('rule', '')})")
+        else:
+            lines.append(f"    FCP: none ({f.message[:100]})")
+        for m, p in c.fcp_methods().items():
+            if p.found:
+                lo = p.low if p.low is not None else p.value
+                hi = p.high if p.high is not None else p.value
+                lines.append(f"      {m:<16} {p.value / 1e5:8.1f} bar [{lo / 1e5:.1f} - "
+                             f"{hi / 1e5:.1f}] {p.quality}")
+            else:
+                lines.append(f"      {m:<16}        - {p.message[:70]}")
+    s = interp.stress
+    if s.available:
+        d = s.to_dict()
+        lines.append(f"  stress at {d['target_tvd_m']:g} m TVD: sigma_h {d['sigma_h_bar']:.1f} bar "
+                     f"[{d['sigma_h_low_bar']:.1f} - {d['sigma_h_high_bar']:.1f}] "
+                     f"({d['sigma_h_emw_sg']:.3f} sg)")
+        if d["t0_bar"] is not None:
+            lines.append(f"    T0 = FBP - Pr = {d['t0_bar']:.1f} bar")
+        for eq, v in d["sigma_H"].items():
+            if v["value_bar"] is not None:
+                lines.append(f"    sigma_H (Eq. {eq}) {v['value_bar']:.1f} bar "
+                             f"[{v['low_bar']:.1f} - {v['high_bar']:.1f}] {v['message']}")
+        if d["regime"]:
+            lines.append(f"    regime (mu={d['mu']}): {d['regime']}")
+        for a in d["assumptions"]:
+            lines.append(f"    assumed: {a}")
+    else:
+        lines.append(f"  stress: {s.message}")
+    return "\n".join(lines)
+
+
+@main.command("pick")
+@click.argument("logs", nargs=-1, required=True, metavar="LOG [LOG ...]")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--out", "out", type=click.Path(file_okay=False), default=None, metavar="DIR",
+              help="Write picks.csv, picks.json and annotated plots into DIR "
+                   "(a fresh DIR-2, DIR-3... if DIR already holds results).")
+@click.option("--window", "windows", multiple=True, metavar="[CYCLE:]NAME=T0:T1",
+              help="Override an automatic window (s from the record start); NAME is a pick "
+                   "(LOP, FBP, Pr, FPP, ISIP) or an FCP method. Repeatable.")
+@click.option("--method", "methods", multiple=True,
+              help="Run only these FCP methods (repeatable).")
+@click.option("--tvd", type=float, default=None, help="Target (open-hole) TVD [m].")
+@click.option("--gauge-tvd", type=float, default=None, help="Gauge TVD [m].")
+@click.option("--mud-density", type=float, default=None, help="Well-fluid density [sg].")
+@click.option("--pore-gradient", type=float, default=None,
+              help="Pore pressure gradient [sg EMW] (default 1.03).")
+@click.option("--sv-gradient", type=float, default=None,
+              help="Vertical stress gradient [sg EMW] (default 2.30).")
+@click.option("--mu", type=float, default=0.6, show_default=True,
+              help="Friction coefficient for the stress polygon.")
+@_friendly_errors
+def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
+             pore_gradient, sv_gradient, mu) -> None:
+    """Pick LOP, FBP, Pr, FPP, ISIP and closure (every method) with intervals; estimate stress.
+
+    Logs are grouped as for `inspect` (a surface + downhole pair is merged). The table shows
+    every test cycle with each closure method's pick and interval, the consensus FCP and the
+    stress estimate. --json prints one object with a "cycles" list (several independent logs:
+    {"logs": [...]}).
+    """
+    import json
+    from pathlib import Path
+
+    from xlotkit.interpret.report import picks_to_dict
+    from xlotkit.pipeline import interpret_record, write_interpretation
+
+    for p in logs:
+        if not Path(p).is_file():
+            raise InputError("no such file", file=p)
+    options = _pick_options(windows, methods)
+    sin = _stress_inputs(tvd, gauge_tvd, mud_density, pore_gradient, sv_gradient, mu)
+    results = []
+    for group, record in _records(list(logs)):
+        label = " + ".join(Path(g).name for g in group)
+        results.append((label, interpret_record(record, options=options, stress_inputs=sin)))
+    written = []
+    if out is not None:
+        for k, (label, interp) in enumerate(results):
+            target = Path(out) if len(results) == 1 else Path(out) / f"log-{k + 1}"
+            paths = write_interpretation(interp, target)
+            written.append(paths["dir"])
+    if as_json:
+        objs = [picks_to_dict(i.picks, i.stress.to_dict()) for _, i in results]
+        obj = objs[0] if len(objs) == 1 else {"logs": objs}
+        click.echo(json.dumps(obj, indent=2, allow_nan=False))
+    else:
+        click.echo("\n\n".join(_pick_table(label, i) for label, i in results))
+        for d in written:
+            click.echo(f"report written to {d}")
+
+
+# ====================================================================== demo
+@main.command("demo")
+@click.option("--out", "out", type=click.Path(file_okay=False), default="results/demo",
+              show_default=True, metavar="DIR",
+              help="Results folder (a fresh DIR-2, DIR-3... if DIR already holds results).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the gauge noise.")
+@click.option("--noise", type=float, default=0.05, show_default=True,
+              help="Gauge noise standard deviation [bar].")
+@_friendly_errors
+def demo_cmd(out: str, seed: int, noise: float) -> None:
+    """Simulate a two-cycle XLOT, read its log back, pick it and write plots and a report."""
+    from tqdm import tqdm
+
+    from xlotkit.pipeline import run_demo
+
+    with tqdm(total=100, desc="demo", unit="%", bar_format="{l_bar}{bar}| {elapsed}",
+              file=sys.stderr) as bar:
+        def progress(frac: float, msg: str) -> None:
+            bar.set_description(f"demo: {msg}")
+            bar.update(max(0, int(round(100 * frac)) - bar.n))
+
+        res = run_demo(out, seed=seed, noise_bar=noise, progress=progress)
+    click.echo(res.summary)
+    click.echo(f"results in {res.out_dir}")

@@ -1,0 +1,658 @@
+"""Run every pick on every cycle of a record and combine them.
+
+:func:`pick_record` is the one call of an interpretation: it segments the record (unless a
+:class:`~xlotkit.interpret.phases.Segmentation` is given), runs :func:`pick_cycle` on every
+cycle and summarises the record (:class:`RecordPicks`): FCP consistency across cycles, the
+tensile strength ``T0 = FBP - Pr`` and the trend of the pressurisation stiffness.
+
+What is picked where
+--------------------
+* Only ``lot`` and ``xlot`` cycles get pressure picks. Line and casing tests only get their
+  pressurisation stiffness (a useful check of the well compliance).
+* The first test cycle: ``LOP``; ``FBP`` when it is an ``xlot`` (the pick itself reports "not
+  found" if the formation did not break down). Later test cycles: ``Pr`` (reopening).
+* ``xlot`` cycles: ``FPP``. Every test cycle: ``ISIP``.
+* Fracture closure (``FCP``): every shut-in method of
+  :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a ``shut_in``
+  phase, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`) when it has a
+  ``flowback`` phase.
+
+The pressurisation and shut-in picks live in their own modules, imported lazily: when one is
+missing or fails, its pick comes back "not found" with the reason, never with an invented
+value.
+
+Consensus FCP
+-------------
+:func:`consensus_fcp` combines the FCP picks of a cycle into one pick with method
+``"consensus"``:
+
+1. **Flowback first.** The system stiffness approach measures closure directly (no
+   leak-off model), so a flowback pick of quality ``good`` is taken as is --
+   ``flowback_sqrt_p`` before ``flowback_p_v`` (the choke-law plot does not need the
+   returned-volume series, whose resolution is usually the weaker one). The interval is that
+   pick's interval, widened to cover the other flowback pick if it is ``good`` too.
+2. **Otherwise the shut-in methods.** The found shut-in picks of quality ``good`` or ``fair``
+   (falling back to ``poor`` ones, then to ``fair``/``poor`` flowback picks, when there is
+   nothing better) are combined by their **median**: the methods have different, partly
+   systematic biases (tangents read high on a gradual closure, G-function low with
+   height recession), so an inverse-variance mean would follow the most confident rather than
+   the most representative. The interval covers every combined pick's interval (min of the
+   lows, max of the highs). Quality: ``good`` with >= 3 methods whose values lie within 5 % of
+   the median, ``fair`` with >= 2 methods, ``poor`` with one method or only poor inputs.
+3. Nothing found: not found, with each method's reason in ``message``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from xlotkit.interpret.phases import Cycle, Segmentation
+from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
+from xlotkit.interpret.picks.models import fit_line
+from xlotkit.interpret.picks.types import Pick
+from xlotkit.record import Record
+
+__all__ = [
+    "FCP_METHODS",
+    "PICK_NAMES",
+    "SHUTIN_METHOD_NAMES",
+    "Consistency",
+    "CyclePicks",
+    "PickOptions",
+    "RecordPicks",
+    "consensus_fcp",
+    "pick_cycle",
+    "pick_record",
+]
+
+#: Shut-in closure methods (names fixed by :mod:`xlotkit.interpret.picks.shutin`).
+SHUTIN_METHOD_NAMES = ("tangent", "sqrt_t", "g_function", "bilinear", "compliance")
+#: Every FCP method, shut-in then flowback.
+FCP_METHODS = SHUTIN_METHOD_NAMES + FLOWBACK_METHODS
+#: Non-closure picks, with the function of :mod:`xlotkit.interpret.picks.pressurisation`.
+PICK_NAMES = {"LOP": "pick_lop", "FBP": "pick_fbp", "Pr": "pick_reopening",
+              "FPP": "pick_fpp", "ISIP": "pick_isip"}
+#: Methods that accept fixed tangents (two time windows).
+TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
+#: Cycle kinds that get pressure picks.
+TEST_KINDS = ("lot", "xlot")
+
+_Window = tuple[float, float]
+
+
+# --------------------------------------------------------------------------- options
+def _norm_key(key: Any, what: str) -> tuple[int | None, str]:
+    """``"tangent"`` -> ``(None, "tangent")``; ``(2, "tangent")`` unchanged; validated."""
+    if isinstance(key, str):
+        cyc, name = None, key
+    elif isinstance(key, tuple) and len(key) == 2:
+        cyc, name = key
+    else:
+        raise ValueError(f"{what} key {key!r}: expected 'name' or (cycle_index, 'name')")
+    if cyc is not None and (isinstance(cyc, bool) or not isinstance(cyc, (int, np.integer))
+                            or cyc < 1):
+        raise ValueError(f"{what} key {key!r}: cycle index must be a positive int or None")
+    return (None if cyc is None else int(cyc)), str(name)
+
+
+def _check_window(w: Any, where: str) -> _Window:
+    try:
+        a, b = (float(v) for v in w)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: window must be (t_start, t_end) in s, got {w!r}") from None
+    if not (np.isfinite(a) and np.isfinite(b) and b > a):
+        raise ValueError(f"{where}: window needs finite t_end > t_start, got {w!r}")
+    return a, b
+
+
+@dataclass(frozen=True)
+class PickOptions:
+    """What to pick and where (all optional; the default is fully automatic).
+
+    Parameters
+    ----------
+    methods : sequence of str
+        FCP methods to run, a subset of :data:`FCP_METHODS` (default all).
+    windows : mapping
+        Time windows [s] overriding the automatic ones. Keys are a pick or method name --
+        ``"LOP"``, ``"FBP"``, ``"Pr"``, ``"FPP"``, ``"ISIP"`` or an FCP method -- for every
+        cycle, or ``(cycle_index, name)`` for one cycle (which wins over the all-cycles
+        entry). Values ``(t_start, t_end)``.
+    tangents : mapping
+        Fixed tangents for the two-line methods (:data:`TANGENT_METHODS`): same keys, values
+        two windows ``((t0, t1), (t2, t3))`` [s] -- the line before and after the break.
+
+    Raises
+    ------
+    ValueError
+        Unknown method or name, malformed key, or an empty/reversed window.
+    """
+
+    methods: tuple[str, ...] = FCP_METHODS
+    windows: Mapping[Any, _Window] = field(default_factory=dict)
+    tangents: Mapping[Any, tuple[_Window, _Window]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        methods = (self.methods,) if isinstance(self.methods, str) else tuple(self.methods)
+        for m in methods:
+            if m not in FCP_METHODS:
+                raise ValueError(f"unknown FCP method {m!r}; expected one of {FCP_METHODS}")
+        object.__setattr__(self, "methods", methods)
+        wins: dict[tuple[int | None, str], _Window] = {}
+        for k, w in dict(self.windows).items():
+            key = _norm_key(k, "windows")
+            if key[1] not in PICK_NAMES and key[1] not in FCP_METHODS:
+                raise ValueError(f"windows key {k!r}: unknown name {key[1]!r}; expected one of "
+                                 f"{tuple(PICK_NAMES) + FCP_METHODS}")
+            wins[key] = _check_window(w, f"windows[{k!r}]")
+        tans: dict[tuple[int | None, str], tuple[_Window, _Window]] = {}
+        for k, w in dict(self.tangents).items():
+            key = _norm_key(k, "tangents")
+            if key[1] not in TANGENT_METHODS:
+                raise ValueError(f"tangents key {k!r}: fixed tangents apply to "
+                                 f"{TANGENT_METHODS} only")
+            try:
+                w1, w2 = w
+            except (TypeError, ValueError):
+                raise ValueError(f"tangents[{k!r}]: expected two windows") from None
+            tans[key] = (_check_window(w1, f"tangents[{k!r}][0]"),
+                         _check_window(w2, f"tangents[{k!r}][1]"))
+        object.__setattr__(self, "windows", wins)
+        object.__setattr__(self, "tangents", tans)
+
+    def window(self, cycle_index: int, name: str) -> _Window | None:
+        """The window for ``name`` in cycle ``cycle_index`` (cycle-specific first), or None."""
+        return self.windows.get((cycle_index, name), self.windows.get((None, name)))
+
+    def tangent(self, cycle_index: int, name: str) -> tuple[_Window, _Window] | None:
+        """Fixed tangents for ``name`` in cycle ``cycle_index``, or None."""
+        return self.tangents.get((cycle_index, name), self.tangents.get((None, name)))
+
+
+# --------------------------------------------------------------------------- consensus
+_QUALITY_RANK = {"good": 0, "fair": 1, "poor": 2, "none": 3}
+
+
+def consensus_fcp(picks: Sequence[Pick]) -> Pick:
+    """One FCP from a cycle's FCP picks (rule in the module docstring).
+
+    Parameters
+    ----------
+    picks : sequence of Pick
+        Any picks; only those named ``"FCP"`` (and not already ``"consensus"``) are used.
+
+    Returns
+    -------
+    Pick
+        ``name="FCP"``, ``method="consensus"``; ``details["rule"]`` says which branch of the
+        rule applied and ``details["methods"]`` which picks were combined.
+    """
+    fcps = [p for p in picks if p.name == "FCP" and p.method != "consensus"]
+    found = [p for p in fcps if p.found]
+    if not found:
+        reasons = "; ".join(f"{p.method}: {p.message}" for p in fcps) or "no FCP method was run"
+        return Pick.not_found("FCP", "consensus", f"no method found closure ({reasons})",
+                              details={"rule": "none", "methods": ()})
+    flow = {p.method: p for p in found if p.method in FLOWBACK_METHODS}
+    good_flow = [flow[m] for m in FLOWBACK_METHODS if m in flow and flow[m].quality == "good"]
+    if good_flow:
+        chosen = good_flow[0]
+        low = min(p.low if p.low is not None else p.value for p in good_flow)
+        high = max(p.high if p.high is not None else p.value for p in good_flow)
+        return Pick("FCP", "consensus", chosen.value, low=low, high=high, t=chosen.t,
+                    window=chosen.window, quality="good",
+                    message=f"system stiffness on flowback ({chosen.method})",
+                    details={"rule": "flowback", "methods": tuple(p.method for p in good_flow),
+                             "chosen": chosen.method})
+    shut = [p for p in found if p.method not in FLOWBACK_METHODS]
+    pool = [p for p in shut if p.quality in ("good", "fair")]
+    rule = "shut-in median"
+    if not pool:
+        pool = [p for p in found if p.quality in ("good", "fair")] or found
+        rule = "median of best available"
+    values = np.array([p.value for p in pool], float)
+    med = float(np.median(values))
+    low = min(p.low if p.low is not None else p.value for p in pool)
+    high = max(p.high if p.high is not None else p.value for p in pool)
+    low, high = min(low, med), max(high, med)
+    worst = max(_QUALITY_RANK[p.quality] for p in pool)
+    agree = bool(np.all(np.abs(values - med) <= 0.05 * abs(med)))
+    if len(pool) >= 3 and agree and worst <= 1:
+        q = "good"
+    elif len(pool) >= 2 and worst <= 1:
+        q = "fair"
+    else:
+        q = "poor"
+    names = tuple(p.method for p in pool)
+    # The time of the pick closest to the median, for marking on plots.
+    closest = pool[int(np.argmin(np.abs(values - med)))]
+    return Pick("FCP", "consensus", med, low=low, high=high, t=closest.t, quality=q,
+                message=f"median of {', '.join(names)}",
+                details={"rule": rule, "methods": names,
+                         "spread": float(values.max() - values.min())})
+
+
+# --------------------------------------------------------------------------- cycle picks
+@dataclass(frozen=True)
+class CyclePicks:
+    """Everything picked in one cycle.
+
+    Attributes
+    ----------
+    cycle : Cycle
+    picks : tuple of Pick
+        Every pick run, found or not (one per name and method).
+    reference : str
+        Where the pressure was measured (:meth:`PressureReference.describe`).
+    stiffness : float or None
+        Pressurisation system stiffness dp/dV [Pa/m^3] (slope of pressure against pumped
+        volume before leak-off).
+    stiffness_stderr : float or None
+        Its standard error [Pa/m^3].
+    stiffness_source : str
+        ``"LOP details"`` when taken from the pressurisation pick, else how it was fitted.
+    fcp : Pick
+        Consensus FCP (:func:`consensus_fcp`); computed from ``picks`` when not given.
+    notes : tuple of str
+        Remarks (skipped picks, failures).
+    """
+
+    cycle: Cycle
+    picks: tuple[Pick, ...]
+    reference: str = ""
+    stiffness: float | None = None
+    stiffness_stderr: float | None = None
+    stiffness_source: str = ""
+    fcp: Pick | None = None
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "picks", tuple(self.picks))
+        object.__setattr__(self, "notes", tuple(self.notes))
+        if self.fcp is None:
+            if self.cycle.kind in TEST_KINDS:
+                fcp = consensus_fcp(self.picks)
+            else:
+                fcp = Pick.not_found("FCP", "consensus",
+                                     f"{self.cycle.kind} cycle: no closure picked")
+            object.__setattr__(self, "fcp", fcp)
+
+    @property
+    def index(self) -> int:
+        """The cycle's 1-based index."""
+        return self.cycle.index
+
+    @property
+    def kind(self) -> str:
+        """The cycle's kind."""
+        return self.cycle.kind
+
+    def get(self, name: str, method: str | None = None) -> Pick | None:
+        """The pick ``name`` (by ``method`` if given), or None if it was not run.
+
+        ``get("FCP")`` and ``get("FCP", "consensus")`` return the consensus :attr:`fcp`.
+        """
+        if name == "FCP" and method in (None, "consensus"):
+            return self.fcp
+        for p in self.picks:
+            if p.name == name and (method is None or p.method == method):
+                return p
+        return None
+
+    def fcp_methods(self) -> dict[str, Pick]:
+        """FCP picks by method name (without the consensus)."""
+        return {p.method: p for p in self.picks if p.name == "FCP"}
+
+
+# --------------------------------------------------------------------------- lazy imports
+def _load(module: str) -> tuple[Any, str]:
+    try:
+        return importlib.import_module(f"xlotkit.interpret.picks.{module}"), ""
+    except ImportError as exc:
+        return None, f"xlotkit.interpret.picks.{module} not available ({exc})"
+
+
+def _accepts(fn: Callable, name: str) -> bool:
+    try:
+        params = inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+    return name in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
+
+
+def _run(name: str, method: str, fn: Callable | None, why: str, *args, **kw) -> Pick:
+    """Call a pick function; a missing or failing one becomes a not-found pick."""
+    if fn is None:
+        return Pick.not_found(name, method, why)
+    try:
+        out = fn(*args, **kw)
+    except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
+        return Pick.not_found(name, method, f"{method} failed: {type(exc).__name__}: {exc}")
+    if not isinstance(out, Pick):
+        return Pick.not_found(name, method, f"{method} returned {type(out).__name__}, not Pick")
+    return out
+
+
+# --------------------------------------------------------------------------- stiffness
+_STIFFNESS_KEYS = ("stiffness", "system_stiffness", "stiffness_pa_per_m3", "slope_p_v",
+                   "pressurisation_stiffness")
+
+
+def _pumped_volume(record: Record, i0: int, i1: int) -> np.ndarray | None:
+    if record.volume is not None:
+        v = record.volume[i0:i1]
+        return v - v[0]
+    if record.rate is not None:
+        t, q = record.t[i0:i1], record.rate[i0:i1]
+        return np.concatenate([[0.0], np.cumsum(0.5 * (q[1:] + q[:-1]) * np.diff(t))])
+    return None
+
+
+def _stiffness(record: Record, cycle: Cycle, picks: Sequence[Pick]
+               ) -> tuple[float | None, float | None, str]:
+    """Pressurisation system stiffness dp/dV [Pa/m^3] of the cycle's first pump phase.
+
+    A straight line through pressure against pumped volume between 15 % and 60 % of the
+    pressure rise (capped at the LOP / Pr when one was picked): low enough to stay below
+    leak-off or reopening, high enough to be past the initial take-up of slack (air, line
+    expansion). It is fitted here rather than taken from the LOP/Pr line because that line
+    is chosen to find a departure (the longest straight stretch), which in a later cycle can
+    be the open-fracture stretch above reopening. When the LOP/Pr details carry a stiffness
+    that differs by more than 20 %, the source string says so.
+    """
+    pump = cycle.phase("pump")
+    if pump is None or pump.i1 - pump.i0 < 5:
+        return None, None, "no pump phase"
+    v = _pumped_volume(record, pump.i0, pump.i1)
+    if v is None:
+        return None, None, "no pumped volume"
+    p = record.pressure[pump.i0:pump.i1]
+    p0 = float(np.min(p[: max(3, p.size // 20)]))
+    top = float(np.max(p))
+    lop = next((pk.value for pk in picks if pk.name in ("LOP", "Pr") and pk.found), None)
+    upper = p0 + 0.6 * (top - p0)
+    if lop is not None and p0 + 0.3 * (top - p0) < lop < upper:
+        upper = lop
+    # Only the rising part before the peak: after breakdown the pressure revisits this range.
+    ipk = int(np.argmax(p))
+    m = np.zeros(p.size, bool)
+    m[: ipk + 1] = True
+    m &= (p >= p0 + 0.15 * (top - p0)) & (p <= upper)
+    if m.sum() < 5 or np.ptp(v[m]) <= 0:
+        return None, None, "too few pressurisation samples"
+    f = fit_line(v[m], p[m])
+    if not f.slope > 0:
+        return None, None, "pressure did not rise with pumped volume"
+    src = "line through p vs pumped volume (15-60 % of the pressure rise)"
+    for pk in picks:
+        if pk.name in ("LOP", "Pr"):
+            for k in _STIFFNESS_KEYS:
+                s = pk.details.get(k)
+                if (isinstance(s, (int, float, np.floating)) and np.isfinite(s) and s > 0
+                        and abs(s / f.slope - 1.0) > 0.2):
+                    src += f"; the {pk.name} line has {s / 1e5:.4g} bar/m3"
+                    break
+    se = float(f.slope_stderr) if np.isfinite(f.slope_stderr) else None
+    return float(f.slope), se, src
+
+
+# --------------------------------------------------------------------------- pick_cycle
+def _flowback_one(record: Record, cycle: Cycle, *, fb_method: str, window, tangents) -> Pick:
+    # One method per call so that each can have its own window / tangents.
+    picks = pick_fcp_flowback(record, cycle, window=window, tangents=tangents,
+                              methods=(fb_method,))
+    return picks[FLOWBACK_METHODS.index(fb_method)]
+
+
+def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = None,
+               options: PickOptions | None = None) -> CyclePicks:
+    """Run every applicable pick on one cycle.
+
+    Parameters
+    ----------
+    record : Record
+    cycle : Cycle
+    previous : CyclePicks, optional
+        Picks of the previous *test* cycle; None marks this as the first test cycle (LOP and
+        FBP are picked there, reopening in later ones).
+    options : PickOptions, optional
+
+    Returns
+    -------
+    CyclePicks
+    """
+    options = options or PickOptions()
+    ref = record.reference.describe()
+    notes: list[str] = []
+    if cycle.kind not in TEST_KINDS:
+        s, se, src = _stiffness(record, cycle, ())
+        return CyclePicks(cycle, (), ref, s, se, src,
+                          notes=(f"{cycle.kind} cycle: only the stiffness is picked",))
+    ci = cycle.index
+    pres, why_p = _load("pressurisation")
+
+    def press(name: str) -> Pick:
+        fn = getattr(pres, PICK_NAMES[name], None) if pres is not None else None
+        why = why_p or f"pressurisation.{PICK_NAMES[name]} not available"
+        kw = {}
+        win = options.window(ci, name)
+        if win is not None:
+            if fn is not None and not _accepts(fn, "window"):
+                notes.append(f"{name}: the pick takes no window, override ignored")
+            else:
+                kw["window"] = win
+        return _run(name, "auto", fn, why, record, cycle, **kw)
+
+    picks: list[Pick] = []
+    first = previous is None
+    if first:
+        picks.append(press("LOP"))
+        if cycle.kind == "xlot":
+            picks.append(press("FBP"))
+    else:
+        picks.append(press("Pr"))
+    if cycle.kind == "xlot":
+        picks.append(press("FPP"))
+    isip = press("ISIP")
+    picks.append(isip)
+
+    wanted = set(options.methods)
+    if cycle.phase("shut_in") is not None:
+        shut, why_s = _load("shutin")
+        table = getattr(shut, "SHUTIN_METHODS", None) if shut is not None else None
+        if shut is not None and table is None:
+            why_s = "xlotkit.interpret.picks.shutin has no SHUTIN_METHODS"
+        for m in SHUTIN_METHOD_NAMES:
+            if m not in wanted:
+                continue
+            fn = table.get(m) if table is not None else None
+            kw: dict[str, Any] = {"window": options.window(ci, m),
+                                  "isip": isip if isip.found else None}
+            tan = options.tangent(ci, m)
+            if tan is not None and fn is not None:
+                if _accepts(fn, "tangents"):
+                    kw["tangents"] = tan
+                else:
+                    notes.append(f"{m}: fixed tangents not supported by the method, ignored")
+            picks.append(_run("FCP", m, fn, why_s or f"shut-in method {m!r} not available",
+                              record, cycle, **kw))
+    elif any(m in wanted for m in SHUTIN_METHOD_NAMES):
+        notes.append("no shut-in phase: shut-in closure methods not run")
+    if cycle.phase("flowback") is not None:
+        for m in FLOWBACK_METHODS:
+            if m not in wanted:
+                continue
+            picks.append(_run("FCP", m, _flowback_one, "", record, cycle, fb_method=m,
+                              window=options.window(ci, m), tangents=options.tangent(ci, m)))
+    elif any(m in wanted for m in FLOWBACK_METHODS):
+        notes.append("no flowback phase: flowback closure methods not run")
+    s, se, src = _stiffness(record, cycle, picks)
+    return CyclePicks(cycle, tuple(picks), ref, s, se, src, notes=tuple(notes))
+
+
+# --------------------------------------------------------------------------- record
+@dataclass(frozen=True)
+class Consistency:
+    """How the cycles of a record agree.
+
+    Attributes
+    ----------
+    fcp : tuple of (int, float)
+        Consensus FCP [Pa] per test cycle where found.
+    fcp_mean, fcp_spread : float or None
+        Mean and max - min of those [Pa].
+    fcp_relative_spread : float or None
+        ``fcp_spread / fcp_mean``.
+    t0 : Pick
+        Tensile strength ``T0 = FBP - Pr`` (FBP of the first test cycle, Pr of the next test
+        cycle that has one) [Pa]; interval ``[FBP.low - Pr.high, FBP.high - Pr.low]``.
+    stiffness : tuple of (int, float)
+        Pressurisation stiffness [Pa/m^3] per cycle where found (all cycle kinds).
+    stiffness_slope, stiffness_slope_stderr : float or None
+        Least-squares trend of the stiffness with cycle index [Pa/m^3 per cycle] (>= 3
+        cycles for a standard error). A falling stiffness means growing compliance: a fracture
+        that stays open or a leaking shoe.
+    stiffness_relative_change : float or None
+        Last / first stiffness - 1.
+    """
+
+    fcp: tuple[tuple[int, float], ...]
+    fcp_mean: float | None
+    fcp_spread: float | None
+    fcp_relative_spread: float | None
+    t0: Pick
+    stiffness: tuple[tuple[int, float], ...]
+    stiffness_slope: float | None
+    stiffness_slope_stderr: float | None
+    stiffness_relative_change: float | None
+
+
+def _t0(cycles: Sequence[CyclePicks]) -> Pick:
+    tests = [c for c in cycles if c.kind in TEST_KINDS]
+    fbp = tests[0].get("FBP") if tests else None
+    if fbp is None or not fbp.found:
+        return Pick.not_found("T0", "FBP-Pr", "no breakdown pressure in the first test cycle")
+    pr = next((c.get("Pr") for c in tests[1:] if c.get("Pr") is not None and c.get("Pr").found),
+              None)
+    if pr is None:
+        return Pick.not_found("T0", "FBP-Pr", "no reopening pressure in a later cycle")
+    value = fbp.value - pr.value
+    lo = (fbp.low if fbp.low is not None else fbp.value) - (
+        pr.high if pr.high is not None else pr.value)
+    hi = (fbp.high if fbp.high is not None else fbp.value) - (
+        pr.low if pr.low is not None else pr.value)
+    q = max((fbp.quality, pr.quality), key=lambda k: _QUALITY_RANK[k])
+    msg = "T0 = FBP - Pr"
+    if value < 0:
+        msg += " is negative: reopening above breakdown, check the picks"
+        q = "poor"
+    return Pick("T0", "FBP-Pr", value, low=min(lo, value), high=max(hi, value), quality=q,
+                message=msg, details={"FBP": fbp.value, "Pr": pr.value})
+
+
+def _consistency(cycles: Sequence[CyclePicks]) -> Consistency:
+    fcp = tuple((c.index, float(c.fcp.value)) for c in cycles
+                if c.kind in TEST_KINDS and c.fcp is not None and c.fcp.found)
+    if fcp:
+        v = np.array([x for _, x in fcp])
+        mean, spread = float(v.mean()), float(np.ptp(v))
+        rel = spread / mean if mean else None
+    else:
+        mean = spread = rel = None
+    st = tuple((c.index, float(c.stiffness)) for c in cycles if c.stiffness is not None)
+    slope = slope_se = change = None
+    if len(st) >= 2:
+        i = np.array([k for k, _ in st], float)
+        s = np.array([x for _, x in st])
+        if len(st) >= 3:
+            f = fit_line(i, s)
+            slope, slope_se = f.slope, f.slope_stderr
+        else:
+            slope = float((s[1] - s[0]) / (i[1] - i[0]))
+        change = float(s[-1] / s[0] - 1.0)
+    return Consistency(fcp, mean, spread, rel, _t0(cycles), st, slope, slope_se, change)
+
+
+@dataclass(frozen=True)
+class RecordPicks:
+    """Picks of a whole record.
+
+    Attributes
+    ----------
+    record : Record
+    segmentation : Segmentation
+    cycles : tuple of CyclePicks
+        One per cycle of the segmentation, in order.
+    options : PickOptions
+    consistency : Consistency
+        Computed from ``cycles`` when not given.
+    """
+
+    record: Record
+    segmentation: Segmentation
+    cycles: tuple[CyclePicks, ...]
+    options: PickOptions = field(default_factory=PickOptions)
+    consistency: Consistency | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cycles", tuple(self.cycles))
+        if self.consistency is None:
+            object.__setattr__(self, "consistency", _consistency(self.cycles))
+
+    @property
+    def t0(self) -> Pick:
+        """Tensile strength ``FBP - Pr`` [Pa] (see :class:`Consistency`)."""
+        return self.consistency.t0
+
+    def cycle(self, index: int) -> CyclePicks:
+        """Picks of the cycle with 1-based ``index``."""
+        for c in self.cycles:
+            if c.index == index:
+                return c
+        raise KeyError(f"no cycle {index}")
+
+    @property
+    def test_cycles(self) -> tuple[CyclePicks, ...]:
+        """The LOT/XLOT cycles."""
+        return tuple(c for c in self.cycles if c.kind in TEST_KINDS)
+
+
+def pick_record(record: Record, segmentation: Segmentation | None = None, *,
+                options: PickOptions | None = None) -> RecordPicks:
+    """Pick every cycle of a record.
+
+    Parameters
+    ----------
+    record : Record
+    segmentation : Segmentation, optional
+        Default: :func:`xlotkit.interpret.phases.segment` of the record.
+    options : PickOptions, optional
+
+    Returns
+    -------
+    RecordPicks
+    """
+    options = options or PickOptions()
+    if segmentation is None:
+        from xlotkit.interpret import phases
+
+        segment = getattr(phases, "segment", None)
+        if segment is None:
+            raise RuntimeError("xlotkit.interpret.phases.segment is not available; pass a "
+                               "Segmentation")
+        segmentation = segment(record)
+    out: list[CyclePicks] = []
+    previous: CyclePicks | None = None
+    for cyc in segmentation.cycles:
+        cp = pick_cycle(record, cyc, previous=previous, options=options)
+        out.append(cp)
+        if cyc.kind in TEST_KINDS:
+            previous = cp
+    return RecordPicks(record, segmentation, tuple(out), options)
+

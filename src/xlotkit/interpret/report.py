@@ -1,0 +1,318 @@
+"""Reports of an interpretation: JSON, a CSV table of picks and annotated plots.
+
+Units: pressures in bar (gauge or absolute as the record's reference says), stiffness in
+bar/m^3, times in s from the record's start (``t_min`` in minutes in the table). Stress results
+passed in are written as they come (SI, Pa) -- see :func:`picks_to_dict`.
+
+JSON schema (``picks.json``)
+----------------------------
+::
+
+    {
+      "sources": [str, ...],                # files the record was read from
+      "reference": str,                     # where the pressure was measured
+      "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
+      "consistency": {"fcp_mean_bar", "fcp_spread_bar", "fcp_relative_spread",
+                      "t0_bar", "t0_low_bar", "t0_high_bar", "t0_message",
+                      "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change"},
+      "cycles": [
+        {"index": int, "kind": str, "reference": str, "t_start_s": float, "t_end_s": float,
+         "lop_bar", "fbp_bar", "reopening_bar", "fpp_bar", "isip_bar": float | null,
+         "fcp_bar", "fcp_low_bar", "fcp_high_bar": float | null,
+         "fcp_quality": str, "fcp_rule": str, "fcp_message": str,
+         "stiffness_bar_per_m3", "stiffness_stderr_bar_per_m3": float | null,
+         "methods": {<every FCP method>: {"fcp_bar", "low_bar", "high_bar": float | null,
+                                          "quality": str, "message": str}},
+         "picks": [{"name", "method", "value_bar", "low_bar", "high_bar", "t_s",
+                    "quality", "message"}, ...],
+         "notes": [str, ...]}
+      ],
+      "stress": {...} | null
+    }
+
+Values that were not picked (or are NaN) are ``null``. FCP methods that were not run for a
+cycle appear in ``methods`` with null values, quality ``"none"`` and message ``"not run"``.
+
+Never destroying results
+------------------------
+:func:`write_pick_report` writes each file to a temporary name in the target folder and moves
+it into place with :func:`os.replace`, so a crash never leaves a half-written file. If the
+target folder already holds a report (any file the report would write), nothing in it is
+touched: by default the report goes to the first free numbered sibling folder
+(``out``, ``out-2``, ``out-3``, ...), created exclusively so that two concurrent runs cannot
+share one; with ``if_exists="error"`` a :class:`FileExistsError` is raised instead.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
+from xlotkit.interpret.picks.types import Pick
+
+__all__ = ["REPORT_FILES", "picks_table", "picks_to_dict", "write_pick_report"]
+
+#: Files always written by :func:`write_pick_report` (plots are added per record).
+REPORT_FILES = ("picks.csv", "picks.json")
+
+_BAR = 1e5
+
+
+def _bar(x: float | None) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x / _BAR if math.isfinite(x) else None
+
+
+def _num(x: Any) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _value_bar(p: Pick | None) -> float | None:
+    return _bar(p.value) if p is not None and p.found else None
+
+
+def _jsonable(obj: Any) -> Any:
+    """Plain JSON types from numbers, arrays, mappings, sequences, dataclasses and Picks."""
+    if obj is None or isinstance(obj, (bool, str)):
+        return obj
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return _num(obj)
+    if isinstance(obj, np.ndarray):
+        return [_jsonable(v) for v in obj.tolist()]
+    if hasattr(obj, "to_dict") and callable(obj.to_dict):
+        return _jsonable(obj.to_dict())
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: _jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, Mapping):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, set, frozenset)):
+        return [_jsonable(v) for v in obj]
+    return str(obj)
+
+
+def _pick_row(p: Pick) -> dict[str, Any]:
+    return {"name": p.name, "method": p.method, "value_bar": _bar(p.value),
+            "low_bar": _bar(p.low), "high_bar": _bar(p.high), "t_s": _num(p.t),
+            "quality": p.quality, "message": p.message}
+
+
+def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
+    fcp = cp.fcp
+    methods: dict[str, Any] = {}
+    run = cp.fcp_methods()
+    for m in FCP_METHODS:
+        p = run.get(m)
+        if p is None:
+            methods[m] = {"fcp_bar": None, "low_bar": None, "high_bar": None,
+                          "quality": "none", "message": "not run"}
+        else:
+            methods[m] = {"fcp_bar": _value_bar(p), "low_bar": _bar(p.low) if p.found else None,
+                          "high_bar": _bar(p.high) if p.found else None,
+                          "quality": p.quality, "message": p.message}
+    return {
+        "index": cp.index,
+        "kind": cp.kind,
+        "reference": cp.reference,
+        "t_start_s": _num(cp.cycle.t_start),
+        "t_end_s": _num(cp.cycle.t_end),
+        "lop_bar": _value_bar(cp.get("LOP")),
+        "fbp_bar": _value_bar(cp.get("FBP")),
+        "reopening_bar": _value_bar(cp.get("Pr")),
+        "fpp_bar": _value_bar(cp.get("FPP")),
+        "isip_bar": _value_bar(cp.get("ISIP")),
+        "fcp_bar": _value_bar(fcp),
+        "fcp_low_bar": _bar(fcp.low) if fcp.found else None,
+        "fcp_high_bar": _bar(fcp.high) if fcp.found else None,
+        "fcp_quality": fcp.quality,
+        "fcp_rule": str(fcp.details.get("rule", "")),
+        "fcp_message": fcp.message,
+        "stiffness_bar_per_m3": _bar(cp.stiffness),
+        "stiffness_stderr_bar_per_m3": _bar(cp.stiffness_stderr),
+        "methods": methods,
+        "picks": [_pick_row(p) for p in cp.picks],
+        "notes": list(cp.notes),
+    }
+
+
+def picks_to_dict(record_picks: RecordPicks, stress: Any = None) -> dict[str, Any]:
+    """The JSON report of a record's picks (schema in the module docstring).
+
+    Parameters
+    ----------
+    record_picks : RecordPicks
+    stress : object, optional
+        Stress results (e.g. :class:`xlotkit.interpret.stress.SigmaHEstimates` or a dict).
+        Mappings are written as given; other objects are converted field by field
+        (``to_dict()`` if they have one), in their own SI units.
+
+    Returns
+    -------
+    dict
+        JSON-serialisable (no NaN: missing values are None).
+    """
+    rec = record_picks.record
+    k = record_picks.consistency
+    t0 = k.t0
+    out: dict[str, Any] = {
+        "sources": list(rec.sources),
+        "reference": rec.reference.describe(),
+        "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
+        "consistency": {
+            "fcp_mean_bar": _bar(k.fcp_mean),
+            "fcp_spread_bar": _bar(k.fcp_spread),
+            "fcp_relative_spread": _num(k.fcp_relative_spread),
+            "t0_bar": _value_bar(t0),
+            "t0_low_bar": _bar(t0.low) if t0.found else None,
+            "t0_high_bar": _bar(t0.high) if t0.found else None,
+            "t0_message": t0.message,
+            "stiffness_slope_bar_per_m3_per_cycle": _bar(k.stiffness_slope),
+            "stiffness_relative_change": _num(k.stiffness_relative_change),
+        },
+        "cycles": [_cycle_dict(cp) for cp in record_picks.cycles],
+        "stress": None if stress is None else _jsonable(stress),
+    }
+    return out
+
+
+def picks_table(record_picks: RecordPicks):
+    """All picks as a table, one row per cycle x pick x method (consensus FCP included).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``cycle, kind, reference, name, method, value_bar, low_bar, high_bar, t_s,
+        t_min, window_start_s, window_end_s, quality, message``; missing values NaN.
+    """
+    import pandas as pd
+
+    rows = []
+    for cp in record_picks.cycles:
+        for p in (*cp.picks, *((cp.fcp,) if cp.picks else ())):
+            w = p.window or (None, None)
+            rows.append({
+                "cycle": cp.index, "kind": cp.kind, "reference": cp.reference,
+                "name": p.name, "method": p.method,
+                "value_bar": _bar(p.value), "low_bar": _bar(p.low) if p.found else None,
+                "high_bar": _bar(p.high) if p.found else None,
+                "t_s": _num(p.t), "t_min": None if p.t is None else float(p.t) / 60.0,
+                "window_start_s": _num(w[0]), "window_end_s": _num(w[1]),
+                "quality": p.quality, "message": p.message,
+            })
+    cols = ["cycle", "kind", "reference", "name", "method", "value_bar", "low_bar", "high_bar",
+            "t_s", "t_min", "window_start_s", "window_end_s", "quality", "message"]
+    df = pd.DataFrame(rows, columns=cols)
+    for c in ("value_bar", "low_bar", "high_bar", "t_s", "t_min", "window_start_s",
+              "window_end_s"):
+        df[c] = pd.to_numeric(df[c], errors="coerce")
+    return df
+
+
+# --------------------------------------------------------------------------- writing
+def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
+    """Write via a temporary file in the same folder, then :func:`os.replace` into place."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _holds_report(folder: Path, names) -> bool:
+    return any((folder / n).exists() for n in names)
+
+
+def _target_dir(out_dir: Path, names, if_exists: str) -> Path:
+    """The folder to write into: ``out_dir`` if it holds no report, else a fresh sibling."""
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir()
+        return out_dir
+    except FileExistsError:
+        if not out_dir.is_dir():
+            raise FileExistsError(f"{out_dir} exists and is not a folder") from None
+    if not _holds_report(out_dir, names):
+        return out_dir
+    if if_exists == "error":
+        raise FileExistsError(f"{out_dir} already holds a pick report; refusing to overwrite it")
+    k = 2
+    while True:
+        cand = out_dir.with_name(f"{out_dir.name}-{k}")
+        try:
+            cand.mkdir()  # exclusive: a concurrent run gets the next number
+            return cand
+        except FileExistsError:
+            k += 1
+
+
+def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress: Any = None,
+                      plots: bool = True,
+                      if_exists: Literal["new", "error"] = "new") -> dict[str, Path]:
+    """Write ``picks.csv``, ``picks.json`` and the plots (PNG) of a record's picks.
+
+    Parameters
+    ----------
+    record_picks : RecordPicks
+    out_dir : str or Path
+        Target folder (created if missing).
+    stress : object, optional
+        Stress results for the JSON (see :func:`picks_to_dict`).
+    plots : bool
+        Also write the figures of :func:`xlotkit.interpret.plots.picks.pick_figures`.
+    if_exists : {"new", "error"}
+        When ``out_dir`` already holds a report: write into the first free sibling
+        ``<out_dir>-2``, ``-3``, ... (default) or raise :class:`FileExistsError`.
+
+    Returns
+    -------
+    dict of str to Path
+        ``{"csv": ..., "json": ..., "dir": ..., <plot name>: ...}``.
+    """
+    if if_exists not in ("new", "error"):
+        raise ValueError(f"if_exists must be 'new' or 'error', got {if_exists!r}")
+    out_dir = Path(out_dir)
+    figures: dict[str, Any] = {}
+    if plots:
+        from xlotkit.interpret.plots.picks import pick_figures
+
+        figures = pick_figures(record_picks)
+    names = [*REPORT_FILES, *(f"{k}.png" for k in figures)]
+    # Also treat a folder with any earlier plot or table as holding a report.
+    target = _target_dir(out_dir, names, if_exists)
+
+    paths: dict[str, Path] = {"dir": target}
+    df = picks_table(record_picks)
+    p_csv = target / "picks.csv"
+    _atomic_write(p_csv, lambda tmp: df.to_csv(tmp, index=False))
+    paths["csv"] = p_csv
+    data = picks_to_dict(record_picks, stress)
+    p_json = target / "picks.json"
+    _atomic_write(p_json, lambda tmp: tmp.write_text(json.dumps(data, indent=2,
+                                                                allow_nan=False) + "\n"))
+    paths["json"] = p_json
+    for name, fig in figures.items():
+        p_png = target / f"{name}.png"
+        _atomic_write(p_png, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+        paths[name] = p_png
+    return paths

@@ -1,0 +1,541 @@
+"""End-to-end jobs built from the library: interpret logs, turn picks into stresses, run the demo.
+
+These functions are what the CLI calls; they hold no physics of their own. They compose
+:mod:`xlotkit.interpret.io` (read), :mod:`xlotkit.interpret.phases` (segment),
+:mod:`xlotkit.interpret.picks` (pick), :mod:`xlotkit.interpret.stress` (stress) and
+:mod:`xlotkit.interpret.report` (write), and for the demo :mod:`xlotkit.sim.lumped` (simulate).
+Progress is reported through an optional callback ``progress(fraction, message)``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from xlotkit.errors import InputError
+from xlotkit.record import ATMOSPHERE_PA, Record
+
+__all__ = [
+    "DemoResult",
+    "StressInputs",
+    "StressSummary",
+    "estimate_stress",
+    "interpret_record",
+    "new_output_dir",
+    "run_demo",
+]
+
+GRAVITY = 9.80665
+_BAR = 1e5
+
+Progress = Callable[[float, str], None]
+
+
+# --------------------------------------------------------------------------- output folders
+def new_output_dir(out: str | Path) -> Path:
+    """A folder for new results that never holds earlier results.
+
+    ``out`` itself when it does not exist or is empty; otherwise the first free sibling
+    ``out-2``, ``out-3``, ... The folder is created exclusively, so two runs started at the
+    same time cannot share one.
+    """
+    out = Path(out)
+    if not out.exists():
+        out.mkdir(parents=True)
+        return out
+    if out.is_dir() and not any(out.iterdir()):
+        return out
+    k = 2
+    while True:
+        cand = out.with_name(f"{out.name}-{k}")
+        try:
+            cand.mkdir(parents=True)
+            return cand
+        except FileExistsError:
+            k += 1
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+# --------------------------------------------------------------------------- stress
+@dataclass(frozen=True)
+class StressInputs:
+    """What an interpretation needs beyond the log to turn pressures into stresses.
+
+    Parameters
+    ----------
+    target_tvd : float, optional
+        True vertical depth of the open hole [m]. Default: the depth of the pressure
+        reference (a bottom-hole or downhole record); required for a surface record.
+    gauge_tvd : float, optional
+        TVD of the gauge [m]; default 0 for a surface gauge, the target depth for a
+        bottom-hole record and the reference depth (vertical well) for a downhole gauge.
+    mud_density : float, optional
+        Well-fluid density [kg/m^3]; default: the median of the record's density series, else
+        1000 kg/m^3 (stated in the assumptions).
+    pore_pressure : float, optional
+        Formation pore pressure at target depth [Pa]; default hydrostatic with 1030 kg/m^3.
+    sv : float, optional
+        Vertical stress at target depth [Pa]; default 22.6 kPa/m (2.3 sg) times the depth.
+    mu : float
+        Friction coefficient for the stress polygon.
+    """
+
+    target_tvd: float | None = None
+    gauge_tvd: float | None = None
+    mud_density: float | None = None
+    pore_pressure: float | None = None
+    sv: float | None = None
+    mu: float = 0.6
+
+    def __post_init__(self) -> None:
+        for key in ("target_tvd", "gauge_tvd", "mud_density", "pore_pressure", "sv"):
+            v = getattr(self, key)
+            if v is not None and not (math.isfinite(v) and v >= 0):
+                raise InputError(f"{v!r} is not a non-negative number", key=key,
+                                 expected="a finite value >= 0")
+        if not (0.0 < self.mu < 2.0):
+            raise InputError(f"friction coefficient {self.mu!r} is implausible", key="mu",
+                             expected="0 < mu < 2 (typically 0.6)")
+
+
+@dataclass(frozen=True)
+class StressSummary:
+    """Stress estimates from a record's picks.
+
+    Attributes
+    ----------
+    available : bool
+        False when the picks or inputs do not allow a stress estimate (``message`` says why).
+    message : str
+    target_tvd : float or None
+        [m].
+    sigma_h, sigma_h_low, sigma_h_high : float or None
+        Minimum horizontal stress and interval [Pa] at target depth.
+    t0, t0_low, t0_high : float or None
+        Tensile strength ``FBP - Pr`` [Pa].
+    sigma_H : dict
+        Per equation (``"C.19"``...) the estimate ``{"value", "low", "high", "message"}`` [Pa].
+    pore_pressure, sv : float or None
+        Used values [Pa].
+    mu : float
+    regime : str or None
+        Faulting regime of the estimate in the stress polygon.
+    assumptions : tuple of str
+        Every default that was used.
+    source_cycle : int or None
+        Cycle whose FCP gave sigma_h.
+    """
+
+    available: bool
+    message: str = ""
+    target_tvd: float | None = None
+    sigma_h: float | None = None
+    sigma_h_low: float | None = None
+    sigma_h_high: float | None = None
+    t0: float | None = None
+    t0_low: float | None = None
+    t0_high: float | None = None
+    sigma_H: dict = field(default_factory=dict)
+    pore_pressure: float | None = None
+    sv: float | None = None
+    mu: float = 0.6
+    regime: str | None = None
+    assumptions: tuple[str, ...] = ()
+    source_cycle: int | None = None
+    estimates: Any = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict in field units (bar, m, sg)."""
+
+        def bar(x):
+            return None if x is None or not math.isfinite(x) else round(float(x) / _BAR, 4)
+
+        emw = None
+        if self.sigma_h is not None and self.target_tvd:
+            emw = round(self.sigma_h / (GRAVITY * self.target_tvd) / 1000.0, 4)
+        return {
+            "available": self.available,
+            "message": self.message,
+            "target_tvd_m": self.target_tvd,
+            "source_cycle": self.source_cycle,
+            "sigma_h_bar": bar(self.sigma_h),
+            "sigma_h_low_bar": bar(self.sigma_h_low),
+            "sigma_h_high_bar": bar(self.sigma_h_high),
+            "sigma_h_emw_sg": emw,
+            "t0_bar": bar(self.t0),
+            "t0_low_bar": bar(self.t0_low),
+            "t0_high_bar": bar(self.t0_high),
+            "sigma_H": {k: {"value_bar": bar(v["value"]), "low_bar": bar(v["low"]),
+                            "high_bar": bar(v["high"]), "message": v["message"]}
+                        for k, v in self.sigma_H.items()},
+            "pore_pressure_bar": bar(self.pore_pressure),
+            "sv_bar": bar(self.sv),
+            "mu": self.mu,
+            "regime": self.regime,
+            "assumptions": list(self.assumptions),
+        }
+
+
+_QUALITY = {"good": 0, "fair": 1, "poor": 2, "none": 3}
+
+
+def _fcp_rank(cycle_picks) -> tuple[int, int, int]:
+    """Order in which cycles are trusted for sigma_h (smallest first).
+
+    A closure seen on flowback (system stiffness) beats one inferred from a shut-in decline,
+    because it needs no leak-off model; then the better quality; then the later cycle (a
+    grown fracture closes more cleanly than the first, near-wellbore one).
+    """
+    f = cycle_picks.fcp
+    methods = f.details.get("methods", ()) if f.details else ()
+    from_flowback = any(str(m).startswith("flowback") for m in methods)
+    return (0 if from_flowback else 1, _QUALITY.get(f.quality, 3), -cycle_picks.index)
+
+
+def _gauge(record: Record, p: float | None) -> float | None:
+    """Pick value on an absolute reference -> gauge (relative to atmosphere)."""
+    if p is None:
+        return None
+    return p - ATMOSPHERE_PA if record.reference.absolute else p
+
+
+def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressSummary:
+    """Turn a record's picks into sigma_h, T0, sigma_H and a faulting regime.
+
+    sigma_h is the consensus FCP of the most trusted test cycle (:func:`_fcp_rank`: flowback
+    closure first, then quality, then the later cycle), moved to
+    the target depth with the well-fluid hydrostatics (:class:`~xlotkit.interpret.stress.
+    DepthModel`; closure picks are static pressures, so no friction). T0 = FBP - Pr. sigma_H
+    from Eq. C.19 (reopening) with Monte-Carlo intervals; the estimate is placed in the stress
+    polygon for ``mu``.
+
+    Parameters
+    ----------
+    record_picks : RecordPicks
+    inputs : StressInputs, optional
+
+    Returns
+    -------
+    StressSummary
+    """
+    from xlotkit.interpret import stress as st
+
+    inputs = inputs or StressInputs()
+    record = record_picks.record
+    ref = record.reference
+    assumptions: list[str] = []
+
+    tests = [c for c in record_picks.cycles if c.fcp is not None and c.fcp.found]
+    if not tests:
+        return StressSummary(False, "no fracture closure was picked in any test cycle")
+    src = min(tests, key=_fcp_rank)
+    fcp = src.fcp
+
+    target = inputs.target_tvd
+    if target is None:
+        if ref.kind in ("bottomhole", "downhole") and ref.depth_m is not None:
+            target = float(ref.depth_m)
+            assumptions.append(f"target depth = reference depth {target:g} m "
+                               "(vertical well, gauge at the open hole)")
+        else:
+            return StressSummary(False, "give the target TVD (--tvd) to turn surface pressures "
+                                        "into stresses")
+    gauge_tvd = inputs.gauge_tvd
+    if gauge_tvd is None:
+        if ref.kind == "surface":
+            gauge_tvd = 0.0
+        elif ref.depth_m is not None:
+            gauge_tvd = float(ref.depth_m)
+            if ref.kind == "downhole":
+                assumptions.append(f"gauge TVD = gauge MD {gauge_tvd:g} m (vertical well)")
+        else:
+            gauge_tvd = target
+    gauge_tvd = min(gauge_tvd, target)
+    rho = inputs.mud_density
+    if rho is None:
+        if record.density is not None and np.any(np.isfinite(record.density)):
+            rho = float(np.nanmedian(record.density))
+            assumptions.append(f"well-fluid density = median of the log, {rho / 1000:.3f} sg")
+        else:
+            rho = 1000.0
+            assumptions.append("well-fluid density 1.00 sg (not in the log; give --mud-density)")
+    model = st.DepthModel(target_tvd=target, gauge_tvd=gauge_tvd, mud_density=rho)
+    dp = float(model.hydrostatic)
+
+    def at_depth(p):
+        return None if p is None else _gauge(record, p) + dp
+
+    sh = at_depth(fcp.value)
+    sh_lo = at_depth(fcp.low if fcp.low is not None else fcp.value)
+    sh_hi = at_depth(fcp.high if fcp.high is not None else fcp.value)
+
+    p0 = inputs.pore_pressure
+    if p0 is None:
+        p0 = 1030.0 * GRAVITY * target
+        assumptions.append("pore pressure hydrostatic, 1.03 sg")
+    sv = inputs.sv
+    if sv is None:
+        sv = 2300.0 * GRAVITY * target
+        assumptions.append("vertical stress 2.30 sg (22.6 kPa/m)")
+
+    t0 = record_picks.t0
+    t0v = t0.value if t0.found else None
+    sigma_H: dict[str, dict[str, Any]] = {}
+    estimates = None
+    pr = next((c.get("Pr") for c in record_picks.test_cycles[1:]
+               if c.get("Pr") is not None and c.get("Pr").found), None)
+    regime = None
+    if pr is not None and sh is not None and sh > p0:
+        pr_u = st.Uncertain(at_depth(pr.value),
+                            low=at_depth(pr.low if pr.low is not None else pr.value),
+                            high=at_depth(pr.high if pr.high is not None else pr.value))
+        sh_u = st.Uncertain(sh, low=min(sh_lo, sh), high=max(sh_hi, sh))
+        try:
+            estimates = st.sigma_H_estimates(sh_u, p0=p0, pr=pr_u)
+            for eq, est in estimates.items():
+                sigma_H[eq] = {"value": est.value, "low": est.low, "high": est.high,
+                               "message": est.message}
+        except InputError as exc:
+            sigma_H["C.19"] = {"value": float("nan"), "low": float("nan"),
+                               "high": float("nan"), "message": str(exc)}
+    if sigma_H and sh is not None and sv > p0:
+        best = next(iter(sigma_H.values()))["value"]
+        if math.isfinite(best):
+            poly = st.stress_polygon(sv, p0, inputs.mu)
+            lo_s, hi_s = sorted((sh, best))
+            regime = poly.classify(lo_s, hi_s).regime
+    return StressSummary(
+        True, "", target, sh, sh_lo, sh_hi,
+        t0v, t0.low if t0.found else None, t0.high if t0.found else None,
+        sigma_H, p0, sv, inputs.mu, regime, tuple(assumptions), src.index, estimates,
+    )
+
+
+# --------------------------------------------------------------------------- interpretation
+@dataclass(frozen=True)
+class Interpretation:
+    """A record with its segmentation, picks and stress summary."""
+
+    record: Record
+    picks: Any
+    stress: StressSummary
+
+
+def interpret_record(record: Record, *, options=None,
+                     stress_inputs: StressInputs | None = None) -> Interpretation:
+    """Segment, pick and estimate stress for one record."""
+    from xlotkit.interpret.phases import segment
+    from xlotkit.interpret.picks.core import pick_record
+
+    seg = segment(record)
+    rp = pick_record(record, seg, options=options)
+    return Interpretation(record, rp, estimate_stress(rp, stress_inputs))
+
+
+def write_interpretation(interp: Interpretation, out_dir: str | Path) -> dict[str, Path]:
+    """Write the pick report (CSV, JSON, plots), the record plot and the stress polygon.
+
+    ``out_dir`` is used as given if empty or new, otherwise a fresh sibling is taken (see
+    :func:`new_output_dir`): earlier results are never overwritten.
+    """
+    from xlotkit.interpret.plots.record import plot_record
+    from xlotkit.interpret.report import write_pick_report
+
+    target = new_output_dir(out_dir)
+    paths = write_pick_report(interp.picks, target, stress=interp.stress.to_dict(),
+                              if_exists="error")
+    paths["record"] = target / "record.png"
+    plot_record(interp.record, interp.picks.segmentation, path=paths["record"])
+    s = interp.stress
+    if s.available and s.sigma_H and s.sv and s.pore_pressure is not None:
+        from xlotkit.interpret.plots.stress import plot_stress_polygon
+
+        est = s.estimates if s.estimates is not None else (s.sigma_h,
+                                                           next(iter(s.sigma_H.values()))["value"])
+        paths["stress_polygon"] = target / "stress_polygon.png"
+        plot_stress_polygon(s.sv, s.pore_pressure, s.mu, est, path=paths["stress_polygon"])
+    return paths
+
+
+# --------------------------------------------------------------------------- demo
+@dataclass(frozen=True)
+class DemoResult:
+    """What the demo produced.
+
+    Attributes
+    ----------
+    out_dir : Path
+    log_path : Path
+        The synthetic field log (CSV) the interpretation read.
+    paths : dict of str to Path
+        Every file written.
+    truth : dict
+        Imposed sigma_h, sigma_H, T0, p0 and the model's FBP [Pa].
+    interpretation : Interpretation
+    summary : str
+        The text report.
+    """
+
+    out_dir: Path
+    log_path: Path
+    paths: dict
+    truth: dict
+    interpretation: Interpretation
+    summary: str
+
+
+def run_demo(out_dir: str | Path, *, seed: int = 0, noise_bar: float = 0.05,
+             progress: Progress | None = None) -> DemoResult:
+    """Simulate a two-cycle XLOT, write it as a field log, read it back, pick, report.
+
+    The lumped model (:func:`xlotkit.sim.lumped.standard_lumped_scene`: 2000 m well,
+    13-3/8" casing, 5" pipe, sigma_h 30 MPa) makes the record; gauge noise of ``noise_bar``
+    (standard deviation) and 0.01 bar resolution are added at 1 s sampling. The log goes through
+    the same reader and picks as a field record, and the report compares every pick with the
+    sigma_h put into the simulation.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Results folder (a fresh sibling is used if it already holds results).
+    seed : int
+        Seed of the gauge noise.
+    noise_bar : float
+        Gauge noise standard deviation [bar].
+    progress : callable, optional
+        ``progress(fraction, message)``.
+
+    Returns
+    -------
+    DemoResult
+    """
+    from xlotkit.interpret.io import read_log, write_log
+    from xlotkit.sim.lumped import simulate_lumped, standard_lumped_scene
+
+    def report(f: float, msg: str) -> None:
+        if progress is not None:
+            progress(f, msg)
+
+    target = new_output_dir(out_dir)
+    scene = standard_lumped_scene(noise=noise_bar * _BAR, resolution=0.01 * _BAR, seed=seed,
+                                  start_time=datetime(2026, 1, 1, 8, 0, 0))
+    result = simulate_lumped(scene, progress=lambda f: report(0.6 * f, "simulating"))
+    if result.status != "ok":
+        raise InputError(f"the demo simulation did not finish: {result.message}",
+                         key="demo")
+    log_path = target / "synthetic_xlot.csv"
+    write_log(result.record, log_path)
+    report(0.65, "interpreting")
+    record = read_log(log_path)
+    interp = interpret_record(record)
+    report(0.8, "writing report")
+    paths = write_interpretation(interp, target / "interpretation")
+    paths["log"] = log_path
+    truth = {k: result.truth[k] for k in ("sigma_h", "sigma_H", "pore_pressure",
+                                          "tensile_strength", "fbp") if k in result.truth}
+    summary = demo_summary(interp, truth, result.message)
+    paths["report"] = target / "report.md"
+    _atomic_text(paths["report"], summary)
+    paths["summary_json"] = target / "summary.json"
+    _atomic_text(paths["summary_json"], json.dumps(
+        {"truth_bar": {k: v / _BAR for k, v in truth.items()},
+         "fcp_error_percent": _fcp_errors(interp, truth["sigma_h"]),
+         "stress": interp.stress.to_dict(),
+         "simulation": result.message}, indent=2, allow_nan=False) + "\n")
+    report(1.0, "done")
+    return DemoResult(target, log_path, paths, truth, interp, summary)
+
+
+def _fcp_errors(interp: Interpretation, sigma_h: float) -> dict[str, dict[str, float | None]]:
+    """Relative error [%] of every FCP pick of every test cycle against ``sigma_h``."""
+    out: dict[str, dict[str, float | None]] = {}
+    for c in interp.picks.test_cycles:
+        row: dict[str, float | None] = {}
+        for m, p in {**c.fcp_methods(), "consensus": c.fcp}.items():
+            row[m] = None if not p.found else round(100.0 * (p.value - sigma_h) / sigma_h, 3)
+        out[f"cycle {c.index}"] = row
+    return out
+
+
+def demo_summary(interp: Interpretation, truth: dict, sim_message: str) -> str:
+    """One-page markdown report of the demo: truth vs picks."""
+    sh = truth["sigma_h"]
+    lines = [
+        "# xlotkit demo: a synthetic XLOT simulated, interpreted and checked",
+        "",
+        f"Simulation (lumped model): {sim_message}.",
+        f"Imposed: sigma_h = {sh / _BAR:.2f} bar, sigma_H = {truth['sigma_H'] / _BAR:.2f} bar, "
+        f"p0 = {truth['pore_pressure'] / _BAR:.2f} bar, T0 = {truth['tensile_strength'] / _BAR:.2f}"
+        f" bar; model breakdown at {truth.get('fbp', float('nan')) / _BAR:.2f} bar "
+        "(bottom hole).",
+        "",
+        "| cycle | method | FCP [bar] | interval [bar] | error vs sigma_h | quality |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in interp.picks.test_cycles:
+        for m, p in {**c.fcp_methods(), "consensus": c.fcp}.items():
+            if p.found:
+                lo = p.low if p.low is not None else p.value
+                hi = p.high if p.high is not None else p.value
+                err = 100.0 * (p.value - sh) / sh
+                lines.append(f"| {c.index} | {m} | {p.value / _BAR:.2f} | "
+                             f"{lo / _BAR:.2f} – {hi / _BAR:.2f} | {err:+.2f} % | {p.quality} |")
+            else:
+                lines.append(f"| {c.index} | {m} | – | – | – | {p.message[:60]} |")
+    lines += ["", "| cycle | LOP | FBP | Pr | FPP | ISIP |", "|---|---|---|---|---|---|"]
+    for c in interp.picks.test_cycles:
+        cells = []
+        for name in ("LOP", "FBP", "Pr", "FPP", "ISIP"):
+            p = c.get(name)
+            cells.append(f"{p.value / _BAR:.2f}" if p is not None and p.found else "–")
+        lines.append(f"| {c.index} | " + " | ".join(cells) + " |")
+    s = interp.stress
+    lines += ["", "## Stress"]
+    if s.available:
+        lines.append(f"sigma_h = {s.sigma_h / _BAR:.2f} bar "
+                     f"({s.sigma_h_low / _BAR:.2f} – {s.sigma_h_high / _BAR:.2f}) from cycle "
+                     f"{s.source_cycle}; imposed {sh / _BAR:.2f} bar "
+                     f"({100 * (s.sigma_h - sh) / sh:+.2f} %).")
+        if s.t0 is not None:
+            lines.append(f"T0 = FBP − Pr = {s.t0 / _BAR:.2f} bar "
+                         f"(imposed {truth['tensile_strength'] / _BAR:.2f} bar).")
+        for eq, v in s.sigma_H.items():
+            lines.append(f"sigma_H (Eq. {eq}) = {v['value'] / _BAR:.2f} bar "
+                         f"({v['low'] / _BAR:.2f} – {v['high'] / _BAR:.2f}); imposed "
+                         f"{truth['sigma_H'] / _BAR:.2f} bar. {v['message']}")
+        if s.regime:
+            lines.append(f"Faulting regime (mu = {s.mu}): {s.regime}.")
+        for a in s.assumptions:
+            lines.append(f"* assumed: {a}")
+    else:
+        lines.append(s.message)
+    lines += ["", "Plots: `interpretation/*.png`. Picks: `interpretation/picks.csv`, "
+              "`interpretation/picks.json`.", ""]
+    return "\n".join(lines)
+
+
+def read_inputs(paths: Sequence[str]) -> Record:
+    """Read one log, or a surface + downhole pair merged (see :func:`~xlotkit.interpret.io.read_logs`)."""
+    from xlotkit.interpret.io import read_logs
+
+    return read_logs(list(paths))

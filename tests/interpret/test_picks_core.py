@@ -1,0 +1,171 @@
+"""The pick orchestrator: options, consensus rule, cycle and record summaries."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from xlotkit.interpret.phases import Cycle, Phase, Segmentation
+from xlotkit.interpret.picks.core import (
+    FCP_METHODS,
+    CyclePicks,
+    PickOptions,
+    RecordPicks,
+    consensus_fcp,
+    pick_cycle,
+    pick_record,
+)
+from xlotkit.interpret.picks.types import Pick
+
+BAR = 1e5
+
+
+def _flowback_helpers():
+    # The analytic fixed-choke record lives with the flowback tests; load it by path so this
+    # works whatever pytest import mode is used.
+    path = Path(__file__).with_name("test_picks_flowback.py")
+    spec = importlib.util.spec_from_file_location("_xlot_fb_helpers", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+fb = _flowback_helpers()
+
+
+def fcp(method, value, quality="good", half=1.0, t=None):
+    return Pick("FCP", method, value * BAR, low=(value - half) * BAR, high=(value + half) * BAR,
+                quality=quality, t=t)
+
+
+def _cycle(index=1, kind="xlot"):
+    ph = (Phase("pump", 0, 10, 0.0, 9.0),)
+    return Cycle(index, kind, ph, 0.0, 9.0, 1e7, 0.1, 0.0)
+
+
+# ----------------------------------------------------------------------- options
+def test_options_validate_and_resolve_windows():
+    o = PickOptions(methods=("tangent", "flowback_sqrt_p"),
+                    windows={"ISIP": (10, 20), (2, "ISIP"): (30, 40), "tangent": (1, 2)},
+                    tangents={(1, "flowback_sqrt_p"): ((0, 10), (20, 30))})
+    assert o.window(1, "ISIP") == (10.0, 20.0)
+    assert o.window(2, "ISIP") == (30.0, 40.0)  # cycle-specific wins
+    assert o.window(3, "LOP") is None
+    assert o.tangent(1, "flowback_sqrt_p") == ((0.0, 10.0), (20.0, 30.0))
+    assert o.tangent(2, "flowback_sqrt_p") is None
+    assert PickOptions().methods == FCP_METHODS
+    with pytest.raises(ValueError, match="unknown FCP method"):
+        PickOptions(methods=("magic",))
+    with pytest.raises(ValueError, match="t_end > t_start"):
+        PickOptions(windows={"ISIP": (20, 10)})
+    with pytest.raises(ValueError, match="unknown name"):
+        PickOptions(windows={"XYZ": (0, 1)})
+    with pytest.raises(ValueError, match="fixed tangents"):
+        PickOptions(tangents={"sqrt_t": ((0, 1), (2, 3))})
+    with pytest.raises(ValueError, match="cycle index"):
+        PickOptions(windows={(0, "ISIP"): (0, 1)})
+    with pytest.raises(Exception):
+        o.methods = ()  # frozen
+
+
+# ----------------------------------------------------------------------- consensus
+def test_consensus_prefers_good_flowback():
+    picks = [fcp("tangent", 110), fcp("sqrt_t", 108), fcp("flowback_sqrt_p", 100, half=0.5),
+             fcp("flowback_p_v", 100.4, half=0.5)]
+    c = consensus_fcp(picks)
+    assert c.method == "consensus" and c.value == 100 * BAR
+    assert c.details["rule"] == "flowback" and c.details["chosen"] == "flowback_sqrt_p"
+    # The interval covers both good flowback picks.
+    assert c.low == pytest.approx(99.5 * BAR) and c.high == pytest.approx(100.9 * BAR)
+
+
+def test_consensus_falls_back_to_shutin_median_when_flowback_is_poor():
+    picks = [fcp("tangent", 110), fcp("sqrt_t", 106, "fair"), fcp("g_function", 104),
+             fcp("bilinear", 90, "poor"), fcp("flowback_sqrt_p", 80, "poor")]
+    c = consensus_fcp(picks)
+    assert c.details["rule"] == "shut-in median"
+    assert c.value == pytest.approx(106 * BAR)
+    assert c.low == pytest.approx(103 * BAR) and c.high == pytest.approx(111 * BAR)
+    assert set(c.details["methods"]) == {"tangent", "sqrt_t", "g_function"}
+    assert c.quality == "good"  # three methods within 5 % of the median
+
+
+def test_consensus_quality_and_not_found():
+    assert consensus_fcp([fcp("tangent", 100), fcp("sqrt_t", 120)]).quality == "fair"
+    assert consensus_fcp([fcp("bilinear", 90, "poor")]).quality == "poor"
+    nf = consensus_fcp([Pick.not_found("FCP", "tangent", "no closure in the decline")])
+    assert not nf.found and "no closure in the decline" in nf.message
+
+
+# ----------------------------------------------------------------------- cycle/record
+def test_cyclepicks_get_and_non_test_cycles():
+    cp = CyclePicks(_cycle(), (fcp("tangent", 100), Pick("ISIP", "x", 120 * BAR)))
+    assert cp.get("FCP").method == "consensus"
+    assert cp.get("FCP", "tangent").value == 100 * BAR
+    assert cp.get("ISIP").value == 120 * BAR and cp.get("LOP") is None
+    casing = CyclePicks(_cycle(kind="casing_test"), ())
+    assert not casing.fcp.found
+
+
+def test_record_consistency_t0_and_stiffness_trend():
+    c1 = CyclePicks(_cycle(1), (Pick("FBP", "max", 200 * BAR, low=199 * BAR, high=201 * BAR),
+                                fcp("flowback_sqrt_p", 100)), stiffness=1000 * BAR)
+    c2 = CyclePicks(_cycle(2), (Pick("Pr", "d", 150 * BAR, low=148 * BAR, high=151 * BAR),
+                                fcp("flowback_sqrt_p", 102)), stiffness=900 * BAR)
+    c3 = CyclePicks(_cycle(3), (fcp("flowback_sqrt_p", 101),), stiffness=800 * BAR)
+    seg = Segmentation((), (c1.cycle, c2.cycle, c3.cycle), True)
+    t, p, v, _ = fb.choke_flowback()
+    rec, _ = fb.make_record(t, p, v)
+    rp = RecordPicks(rec, seg, (c1, c2, c3))
+    k = rp.consistency
+    assert k.fcp_spread == pytest.approx(2 * BAR) and k.fcp_mean == pytest.approx(101 * BAR)
+    assert rp.t0.value == pytest.approx(50 * BAR)
+    assert rp.t0.low == pytest.approx(48 * BAR) and rp.t0.high == pytest.approx(53 * BAR)
+    assert k.stiffness_slope == pytest.approx(-100 * BAR)
+    assert k.stiffness_relative_change == pytest.approx(-0.2)
+    assert rp.cycle(2) is c2
+    with pytest.raises(KeyError):
+        rp.cycle(9)
+
+
+def test_pick_cycle_on_analytic_flowback_record():
+    t, p, v, _ = fb.choke_flowback()
+    rec, cyc = fb.make_record(t, p, v)
+    cp = pick_cycle(rec, cyc)
+    fmeth = cp.fcp_methods()
+    assert set(fb_m for fb_m in ("flowback_sqrt_p", "flowback_p_v")) <= set(fmeth)
+    assert fmeth["flowback_sqrt_p"].value == pytest.approx(100 * BAR, rel=5e-3)
+    # Consensus follows the good flowback pick.
+    assert cp.fcp.details["rule"] == "flowback"
+    assert cp.fcp.value == pytest.approx(100 * BAR, rel=5e-3)
+    # LOP / FBP / FPP / ISIP picks are present (found or with a reason), never invented.
+    names = {pk.name for pk in cp.picks}
+    assert {"LOP", "FBP", "FPP", "ISIP"} <= names
+    for pk in cp.picks:
+        assert pk.found or pk.message
+    # Synthetic pump-in: 150 bar over 2.5 m^3 -> 60 bar/m^3.
+    assert cp.stiffness == pytest.approx(150 * BAR / 2.5, rel=0.02)
+    assert "surface" in cp.reference
+
+
+def test_pick_record_with_segmentation_and_method_subset():
+    t, p, v, _ = fb.choke_flowback()
+    rec, cyc = fb.make_record(t, p, v)
+    seg = Segmentation(cyc.phases, (cyc,), True)
+    rp = pick_record(rec, seg, options=PickOptions(methods=("flowback_p_v",)))
+    (cp,) = rp.cycles
+    methods = [pk.method for pk in cp.picks if pk.name == "FCP"]
+    assert methods == ["flowback_p_v"]
+    assert rp.consistency.fcp[0][1] == pytest.approx(100 * BAR, rel=5e-3)
+    assert not rp.t0.found
+
+
+def test_later_cycle_gets_reopening_not_lop():
+    t, p, v, _ = fb.choke_flowback()
+    rec, cyc = fb.make_record(t, p, v)
+    first = pick_cycle(rec, cyc)
+    second = pick_cycle(rec, cyc, previous=first)
+    assert second.get("Pr") is not None and second.get("LOP") is None
+    assert second.get("FBP") is None
