@@ -1,0 +1,54 @@
+"""MDEM mechanics (thesis section 2.2): intact clusters behave as CST elements, failed
+clusters as frictional DEM contacts; quasi-static implicit solve.
+
+Compression is positive in this package's public API (stresses, pressures, contact normal
+forces); SI units throughout.
+"""
+
+from xlotkit.sim.mechanics.config import (
+    BoundaryConditions,
+    InSituStress,
+    InterfacePlane,
+    RockProperties,
+    SolverOptions,
+    StrengthScaling,
+)
+from xlotkit.sim.mechanics.solver import (
+    BONDED,
+    FAILED_SHEAR,
+    FAILED_TENSILE,
+    INTACT,
+    INTERFACE,
+    OPEN,
+    PRESET,
+    SLIP,
+    STICK,
+    BreakdownResult,
+    MechanicsModel,
+    MechanicsResult,
+    MechanicsState,
+    wall_pressure_at_first_failure,
+)
+
+__all__ = [
+    "BONDED",
+    "FAILED_SHEAR",
+    "FAILED_TENSILE",
+    "INTACT",
+    "INTERFACE",
+    "OPEN",
+    "PRESET",
+    "SLIP",
+    "STICK",
+    "BoundaryConditions",
+    "BreakdownResult",
+    "InSituStress",
+    "InterfacePlane",
+    "MechanicsModel",
+    "MechanicsResult",
+    "MechanicsState",
+    "RockProperties",
+    "SolverOptions",
+    "StrengthScaling",
+    "wall_pressure_at_first_failure",
+]

@@ -1,0 +1,268 @@
+"""MDEM cluster formulation, assembly, contacts and failure on small meshes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from xlotkit import InputError
+from xlotkit.sim.mechanics import (
+    FAILED_SHEAR,
+    FAILED_TENSILE,
+    INTACT,
+    OPEN,
+    SLIP,
+    STICK,
+    BoundaryConditions,
+    InSituStress,
+    MechanicsModel,
+    RockProperties,
+    SolverOptions,
+    StrengthScaling,
+)
+from xlotkit.sim.mechanics import mdem
+from xlotkit.sim.mechanics.failure import (
+    mohr_coulomb_margin,
+    principal_stresses,
+    strength_fields,
+    tensile_margin,
+)
+from xlotkit.sim.mesh import borehole_mesh, rectangle_mesh
+
+E, NU = 10e9, 0.25
+
+
+def _random_triangles(n, seed=0):
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-1.0, 1.0, size=(n, 3, 2)) * rng.uniform(0.01, 10.0, size=(n, 1, 1))
+    # keep reasonably shaped ones (M becomes singular only for degenerate triangles)
+    d1 = pts[:, 1] - pts[:, 0]
+    d2 = pts[:, 2] - pts[:, 0]
+    area = 0.5 * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    pts[area < 0] = pts[area < 0][:, [0, 2, 1]]
+    scale = np.max(np.hypot(*(pts - pts.mean(axis=1, keepdims=True)).transpose(2, 0, 1)), axis=1)
+    ok = np.abs(area) > 0.05 * scale ** 2
+    pts = pts[ok]
+    return pts.reshape(-1, 2), np.arange(len(pts) * 3).reshape(-1, 3)
+
+
+def test_mdem_intact_cluster_stiffness_equals_cst_to_round_off():
+    nodes, tris = _random_triangles(500)
+    C = mdem.plane_strain_matrix(E, NU)
+    g = mdem.cluster_geometry(nodes, tris)
+    M = mdem.m_matrix(g)
+    K = mdem.micro_stiffness(M, C, g.area)
+    bn, _ = mdem.contact_operators(g)
+    k_mdem = mdem.intact_cluster_stiffness(K, bn)
+    k_cst = mdem.cst_stiffness(nodes, tris, C)
+    scale = np.abs(k_cst).max(axis=(1, 2))[:, None, None]
+    # the two differ only by the round-off of inverting M (condition number of M is
+    # O(10) for these shapes): 1e-11 relative is ~1e5 machine epsilons
+    assert np.max(np.abs(k_mdem - k_cst) / scale) < 1e-11
+    # Eq. 2.13 closes: C = M^T K M / A
+    C_back = np.einsum("cji,cjk,ckl->cil", M, K, M) / g.area[:, None, None]
+    np.testing.assert_allclose(C_back, np.broadcast_to(C, C_back.shape), rtol=0,
+                               atol=1e-11 * np.abs(C).max())
+    # K is symmetric positive definite (normal stiffnesses are the positive diagonal)
+    np.testing.assert_allclose(K, np.transpose(K, (0, 2, 1)), rtol=1e-10,
+                               atol=1e-12 * np.abs(K).max())
+    assert np.all(np.linalg.eigvalsh(0.5 * (K + np.transpose(K, (0, 2, 1)))) > 0)
+
+
+def test_mdem_cluster_stress_from_contact_forces_is_eq_2_11():
+    nodes, tris = _random_triangles(50, seed=1)
+    g = mdem.cluster_geometry(nodes, tris)
+    M = mdem.m_matrix(g)
+    F = np.random.default_rng(2).normal(size=(len(tris), 3))
+    s1 = mdem.cluster_stress_from_forces(g.area, g.dx, g.normal, F)
+    s2 = np.einsum("cji,cj->ci", M, F) / g.area[:, None]
+    np.testing.assert_allclose(s1, s2, rtol=1e-12, atol=1e-12 * np.abs(s2).max())
+
+
+def _rock(**kw):
+    base = dict(young=E, poisson=NU, biot=0.8, tensile_strength=1e12, cohesion=1e12)
+    base.update(kw)
+    return RockProperties(**base)
+
+
+def test_mdem_patch_test_uniform_stress_and_linear_displacement():
+    # jittered mesh, far-field tractions and a uniform pore-pressure change: the exact
+    # answer is a uniform total stress (= far field) and a linear displacement field
+    mesh = rectangle_mesh(2.0, 1.0, 8, 5, jitter=0.25, seed=7)
+    sx, sy, sxy, p0 = 30e6, 20e6, 5e6, 10e6
+    model = MechanicsModel(mesh, _rock(), InSituStress(sx, sy, sxy, p0),
+                           boundary=BoundaryConditions("tractions"))
+    s0 = model.initial_state()
+    # typical displacements here are ~1e-3 m; 1e-15 m is round-off
+    np.testing.assert_allclose(s0.displacement, 0.0, atol=1e-15)
+    dp = 3e6
+    res = model.step(s0, pore_pressure=p0 + dp)
+    assert res.converged
+    st = res.state
+    # total stress stays the far field exactly (round-off of a sparse solve)
+    np.testing.assert_allclose(st.stress, np.broadcast_to([sx, sy, sxy], st.stress.shape),
+                               rtol=0, atol=1e-8 * sx)
+    # strain = C^-1 (alpha dp I) (effective stress drops by alpha dp): u linear in x
+    C = mdem.plane_strain_matrix(E, NU)
+    eps = np.linalg.solve(C, 0.8 * dp * np.array([1.0, 1.0, 0.0]))
+    B = mdem.cst_b_matrix(mesh.nodes, mesh.triangles)
+    strain = np.einsum("cij,cj->ci", B, st.displacement.reshape(-1)[model.dofs])
+    np.testing.assert_allclose(strain, np.broadcast_to(eps, strain.shape), rtol=1e-9,
+                               atol=1e-9 * np.abs(eps).max())
+
+
+def test_mdem_predrilling_equilibrium_with_matching_wall_pressure_is_exact():
+    mesh = borehole_mesh(size=10.0)
+    model = MechanicsModel(mesh, _rock(), InSituStress(30e6, 30e6, 0.0, 10e6, 30e6))
+    st = model.initial_state()
+    # isotropic far field equal to the wall pressure: drilling changes nothing
+    assert np.abs(st.displacement).max() < 1e-15
+    np.testing.assert_allclose(st.stress[:, :2], 30e6, rtol=1e-12)
+
+
+def test_mdem_config_validation_names_the_key():
+    with pytest.raises(InputError) as e:
+        RockProperties(poisson=0.5)
+    assert e.value.key == "rock.poisson"
+    with pytest.raises(InputError) as e:
+        RockProperties(young=-1.0)
+    assert e.value.key == "rock.young"
+    with pytest.raises(InputError) as e:
+        StrengthScaling(reference_area=0.0)
+    assert e.value.key == "strength_scaling.reference_area"
+    with pytest.raises(InputError) as e:
+        InSituStress(pore_pressure=-1.0)
+    assert e.value.key == "stress.pore_pressure"
+    with pytest.raises(InputError) as e:
+        BoundaryConditions("glue")
+    assert e.value.key == "boundary.kind"
+    with pytest.raises(InputError) as e:
+        MechanicsModel(borehole_mesh(size=10.0), RockProperties(), InSituStress(sigma_xy=1e6))
+    assert e.value.key == "stress.sigma_xy"
+    with pytest.raises(InputError):
+        SolverOptions(rtol=0.0)
+
+
+def test_mdem_principal_stresses_and_criteria_formulas():
+    s = np.array([[10.0, 2.0, 3.0]])
+    s1, s2, ang = principal_stresses(s)
+    assert s1[0] == pytest.approx(6 + 5) and s2[0] == pytest.approx(6 - 5)
+    assert math.tan(2 * ang[0]) == pytest.approx(2 * 3 / 8)
+    assert tensile_margin(np.array([[-5.0, 1.0, 0.0]]), 5.0)[0] == pytest.approx(0.0)
+    # MC margin is zero on the envelope: (s1 - s2)/2 = S0 cos(phi) + (s1 + s2)/2 sin(phi)
+    phi, S0, s2v = math.radians(30), 2.0, 4.0
+    s1v = (2 * S0 * math.cos(phi) + s2v * (1 + math.sin(phi))) / (1 - math.sin(phi))
+    assert mohr_coulomb_margin(np.array([[s1v, s2v, 0.0]]), S0, phi)[0] == pytest.approx(
+        0.0, abs=1e-12)
+
+
+def test_mdem_strength_heterogeneity_and_size_scaling():
+    area = np.array([1e-4, 4e-4, 16e-4, 1e-4])
+    rock = RockProperties(tensile_strength=4e6, cohesion=8e6,
+                          scaling=StrengthScaling(True, reference_area=1e-4))
+    T, S = strength_fields(rock, area)
+    # (A_ref / A)^(1/4): 4x the area -> 1/sqrt(2) the strength
+    np.testing.assert_allclose(T, 4e6 * np.array([1, 2 ** -0.5, 0.5, 1]))
+    np.testing.assert_allclose(S / T, 2.0)
+    het = RockProperties(heterogeneity=0.25, seed=5)
+    T1, _ = strength_fields(het, np.ones(1000))
+    T2, _ = strength_fields(het, np.ones(1000))
+    np.testing.assert_array_equal(T1, T2)
+    assert T1.min() >= 0.75 * 5e6 and T1.max() <= 1.25 * 5e6 and T1.std() > 0.1 * 5e6
+
+
+def _single_cell(rock, sx, sy, sxy=0.0):
+    # two triangles, uniform stress (patch test): the cluster stress is exactly the far
+    # field, so the failure pressures are known in closed form
+    mesh = rectangle_mesh(1.0, 1.0, 1, 1)
+    model = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, 0.0),
+                           boundary=BoundaryConditions("tractions"))
+    return model, model.initial_state()
+
+
+def test_mdem_tensile_failure_exactly_at_the_limit():
+    T = 4e6
+    model, s0 = _single_cell(_rock(tensile_strength=T, biot=1.0), 30e6, 10e6)
+    p_star = 10e6 + T  # sigma'_min = 10 MPa - p reaches -T
+    below = model.step(s0, pore_pressure=p_star * (1 - 1e-9))
+    assert below.converged and below.new_failures.size == 0
+    above = model.step(s0, pore_pressure=p_star * (1 + 1e-9))
+    assert above.new_failures.size == 2
+    assert np.all(above.state.cluster_state == FAILED_TENSILE)
+    # with the pore pressure above sigma_y everywhere and no tension left in the cracked
+    # specimen there is no equilibrium: the solver must say so, not return garbage
+    assert not above.converged
+
+
+def test_mdem_mohr_coulomb_failure_exactly_at_the_limit():
+    S0, phi = 5e6, math.radians(30.0)
+    model, s0 = _single_cell(_rock(cohesion=S0, friction_angle_deg=30.0, biot=1.0,
+                                   tensile_strength=50e6), 40e6, 10e6)
+    # (s1' - s2')/2 = S0 cos(phi) + (s1' + s2')/2 sin(phi) with s' = s - p
+    p_star = 25e6 - (15e6 - S0 * math.cos(phi)) / math.sin(phi)
+    below = model.step(s0, pore_pressure=p_star * (1 - 1e-9))
+    assert below.new_failures.size == 0
+    above = model.step(s0, pore_pressure=p_star * (1 + 1e-9))
+    assert above.new_failures.size == 2
+    assert np.all(above.state.cluster_state == FAILED_SHEAR)
+
+
+def test_mdem_failed_contacts_obey_coulomb_friction():
+    # a block with a band of pre-failed clusters under anisotropic stress; lowering the
+    # effective stress (raising the pore pressure) makes the failed contacts slip
+    mesh = rectangle_mesh(2.0, 2.0, 6, 6, jitter=0.15, seed=3)
+    rock = _rock(biot=1.0, friction_angle_deg=20.0)
+    model = MechanicsModel(mesh, rock, InSituStress(40e6, 15e6, 8e6, 0.0),
+                           boundary=BoundaryConditions("tractions"))
+    s0 = model.initial_state()
+    band = np.nonzero(np.abs(mesh.centroids[:, 1]) < 0.4)[0]
+    s1 = model.fail_clusters(s0, band)
+    assert np.all(s1.cluster_state[band] != INTACT)
+    res = model.step(s1, pore_pressure=9e6)
+    assert res.converged, res.reason
+    st = res.state
+    mu = math.tan(math.radians(20.0))
+    fn, fs, status = st.normal_force, st.shear_force, st.contact_status
+    slip = status == SLIP
+    stick = status == STICK
+    assert slip.sum() > 0 and stick.sum() > 0
+    scale = np.abs(fn[band]).max()
+    # slipping contacts sit exactly on the Coulomb line, sticking ones inside it
+    np.testing.assert_allclose(np.abs(fs[slip]), mu * fn[slip], rtol=1e-9, atol=1e-9 * scale)
+    assert np.all(np.abs(fs[stick]) <= mu * fn[stick] * (1 + 1e-9) + 1e-9 * scale)
+    assert np.all(st.slip[slip] > 0)
+    # an opened contact carries no tension (normal forces are compression positive)
+    failed = st.cluster_state != INTACT
+    assert np.all(fn[failed] >= 0.0)
+    np.testing.assert_array_equal(fn[status == OPEN], 0.0)
+    np.testing.assert_array_equal(fs[status == OPEN], 0.0)
+    # global equilibrium still holds: far-field stress is carried through the band
+    far = np.abs(mesh.centroids[:, 1]) > 0.9
+    assert np.all(st.stress[far, 0] > 0)
+
+
+def test_mdem_interface_plane_uses_its_own_normal_and_friction():
+    from xlotkit.sim.mechanics import INTERFACE, InterfacePlane
+
+    mesh = rectangle_mesh(2.0, 2.0, 8, 8, jitter=0.1, seed=2)
+    ang = math.radians(30.0)
+    d = np.array([math.cos(ang), math.sin(ang)])
+    # a fault inside the block (a through-going one would slide without bound)
+    plane = InterfacePlane(tuple(-0.6 * d), tuple(0.6 * d), friction_angle_deg=10.0)
+    model = MechanicsModel(mesh, _rock(biot=1.0), InSituStress(40e6, 20e6, 0.0, 0.0),
+                           boundary=BoundaryConditions("tractions"), interfaces=[plane])
+    st = model.initial_state()
+    cut = st.cluster_state == INTERFACE
+    assert cut.sum() > 8
+    # contacts crossing the plane measure relative displacement along its normal
+    n = np.array([-d[1], d[0]])
+    crossing = np.abs(np.abs(model.c_normal[cut] @ n) - 1.0) < 1e-12
+    assert crossing.sum() >= cut.sum()  # at least one crossing contact per cut cluster
+    # the plane is weak: slipping contacts sit on its Coulomb line (tan 10 deg)
+    slip = st.contact_status == SLIP
+    assert slip.any()  # tau/sigma_n = 0.35 on the plane > tan(10 deg): it must slip
+    np.testing.assert_allclose(np.abs(st.shear_force[slip]),
+                               math.tan(math.radians(10.0)) * st.normal_force[slip],
+                               rtol=1e-9)
+    far = np.hypot(*mesh.centroids.T) > 0.9
+    assert np.all(np.isfinite(st.stress)) and np.all(st.stress[far & ~cut, 0] > 0)
