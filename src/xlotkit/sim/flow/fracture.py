@@ -1,0 +1,172 @@
+"""Aperture-dependent permeability and porosity of a failed cluster (thesis 4.3, SPEC §4).
+
+Small pure kernels, vectorised over clusters, SI units. The mechanics supplies the normal
+opening ``w_n`` (and the shear slip ``u_s``) of a failed cluster's crack; the flow model uses
+the results as per-cell permeability and as extra pore volume.
+
+Model
+-----
+Hydraulic aperture (the residual aperture keeps a closed crack slightly conductive; shear
+dilation only when the scene enables it)::
+
+    w_h = w_res + max(w_n, 0) [+ tan(psi) |u_s|]                          [m]
+
+Parallel-plate ("cubic law") permeability of the crack (Eq. 4.2)::
+
+    k_f = w_h^2 / 12                                                      [m^2]
+
+Up-scaling of the crack into the cluster (Eq. 4.3): a crack of aperture ``w_h`` crossing a
+cell of width ``Delta`` perpendicular to it adds ``k_f w_h / Delta`` to the matrix
+permeability ``k_m`` (flow in parallel through rock and crack)::
+
+    PM = 1 + k_f w_h / (k_m Delta),        k = PM k_m = k_m + w_h^3 / (12 Delta)
+
+Fracture porosity (Eq. 4.4), with ``V_f`` the crack volume and ``V_b`` the bulk volume::
+
+    phi_f = V_f / V_b
+
+In the flow residual the crack volume ``V_f`` enters as extra pore volume of the cell (see
+:class:`xlotkit.sim.flow.FlowState`), so opening a crack lowers its pressure through the fluid
+compressibility and draws fluid in (thesis 4.4.2) instead of creating mass.
+
+The cluster length scale: for a crack of trace length ``l`` through a cell of area ``A``,
+``Delta = A / l`` makes the up-scaled permeability consistent with the fracture porosity
+(``k - k_m = k_f phi_f`` when ``V_f = w_h l h``). Without a trace length ``sqrt(A)`` is used.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from xlotkit.errors import InputError
+
+__all__ = [
+    "cluster_length_scale",
+    "cubic_law_permeability",
+    "fracture_porosity",
+    "hydraulic_aperture",
+    "permeability_multiplier",
+    "permeability_multiplier_derivative",
+    "upscaled_permeability",
+]
+
+
+def hydraulic_aperture(normal_opening, residual_aperture, shear_slip=None,
+                       dilation_angle=None):
+    """Hydraulic aperture ``w_h = w_res + max(w_n, 0) [+ tan(psi) |u_s|]`` [m].
+
+    Parameters
+    ----------
+    normal_opening : array_like, shape (m,)
+        Normal opening ``w_n`` of the crack [m]; negative (overlap / closed) counts as 0.
+    residual_aperture : float or array_like, shape (m,)
+        ``w_res >= 0`` [m], the aperture of a closed crack.
+    shear_slip : array_like, shape (m,), optional
+        Accumulated shear slip ``u_s`` [m]; used only together with ``dilation_angle``.
+    dilation_angle : float or array_like, optional
+        Dilation angle ``psi`` [rad] in ``[0, pi/2)``; ``None`` disables shear dilation.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        Hydraulic aperture [m].
+    """
+    wn = np.asarray(normal_opening, dtype=float)
+    wres = np.asarray(residual_aperture, dtype=float)
+    if np.any(wres < 0) or not np.all(np.isfinite(wres)):
+        raise InputError("must be finite and >= 0", key="residual_aperture", expected=">= 0")
+    w = wres + np.maximum(wn, 0.0)
+    if dilation_angle is not None and shear_slip is not None:
+        psi = np.asarray(dilation_angle, dtype=float)
+        if np.any(psi < 0) or np.any(psi >= 0.5 * np.pi):
+            raise InputError("must be in [0, pi/2) rad", key="dilation_angle",
+                             expected="[0, pi/2)")
+        w = w + np.tan(psi) * np.abs(np.asarray(shear_slip, dtype=float))
+    return w
+
+
+def cubic_law_permeability(hydraulic_aperture_):
+    """Parallel-plate permeability ``k_f = w_h^2 / 12`` [m^2] (Eq. 4.2).
+
+    Parameters
+    ----------
+    hydraulic_aperture_ : array_like
+        ``w_h`` [m].
+    """
+    w = np.asarray(hydraulic_aperture_, dtype=float)
+    return w * w / 12.0
+
+
+def cluster_length_scale(area, trace_length=None):
+    """Cell width ``Delta`` perpendicular to the crack [m] used by Eq. 4.3.
+
+    Parameters
+    ----------
+    area : array_like, shape (m,)
+        Cell areas [m^2].
+    trace_length : array_like, shape (m,), optional
+        Length of the crack trace inside each cell [m]; ``Delta = A / l``. Default
+        ``Delta = sqrt(A)`` (a crack crossing a cell of typical size).
+    """
+    a = np.asarray(area, dtype=float)
+    if np.any(a <= 0):
+        raise InputError("cell areas must be > 0", key="area")
+    if trace_length is None:
+        return np.sqrt(a)
+    ell = np.asarray(trace_length, dtype=float)
+    if np.any(ell <= 0):
+        raise InputError("must be > 0", key="trace_length")
+    return a / ell
+
+
+def permeability_multiplier(hydraulic_aperture_, matrix_permeability, length_scale):
+    """Permeability multiplier ``PM = 1 + k_f w_h / (k_m Delta)`` (Eq. 4.3), dimensionless.
+
+    Parameters
+    ----------
+    hydraulic_aperture_ : array_like, shape (m,)
+        ``w_h`` [m].
+    matrix_permeability : float or array_like, shape (m,)
+        ``k_m > 0`` [m^2].
+    length_scale : float or array_like, shape (m,)
+        ``Delta > 0`` [m], see :func:`cluster_length_scale`.
+    """
+    w = np.asarray(hydraulic_aperture_, dtype=float)
+    km = np.asarray(matrix_permeability, dtype=float)
+    d = np.asarray(length_scale, dtype=float)
+    if np.any(km <= 0):
+        raise InputError("must be > 0 (PM is relative to the matrix)",
+                         key="matrix_permeability", expected="> 0")
+    if np.any(d <= 0):
+        raise InputError("must be > 0", key="length_scale", expected="> 0")
+    return 1.0 + cubic_law_permeability(w) * w / (km * d)
+
+
+def permeability_multiplier_derivative(hydraulic_aperture_, matrix_permeability,
+                                       length_scale):
+    """``d PM / d w_h = w_h^2 / (4 k_m Delta)`` [1/m] (for the coupled Jacobian)."""
+    w = np.asarray(hydraulic_aperture_, dtype=float)
+    return w * w / (4.0 * np.asarray(matrix_permeability, dtype=float)
+                    * np.asarray(length_scale, dtype=float))
+
+
+def upscaled_permeability(hydraulic_aperture_, matrix_permeability, length_scale):
+    """Cell permeability of a cracked cluster ``k = PM k_m = k_m + w_h^3 / (12 Delta)`` [m^2]."""
+    return (permeability_multiplier(hydraulic_aperture_, matrix_permeability, length_scale)
+            * np.asarray(matrix_permeability, dtype=float))
+
+
+def fracture_porosity(fracture_volume, bulk_volume):
+    """Fracture porosity ``phi_f = V_f / V_b`` (Eq. 4.4), dimensionless.
+
+    Parameters
+    ----------
+    fracture_volume : array_like, shape (m,)
+        Crack volume in each cell [m^3] (negative values count as 0).
+    bulk_volume : array_like, shape (m,)
+        Bulk cell volume ``A h`` [m^3].
+    """
+    vb = np.asarray(bulk_volume, dtype=float)
+    if np.any(vb <= 0):
+        raise InputError("must be > 0", key="bulk_volume")
+    return np.maximum(np.asarray(fracture_volume, dtype=float), 0.0) / vb
