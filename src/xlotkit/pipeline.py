@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
@@ -21,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from xlotkit.atomic import atomic_write_text
 from xlotkit.errors import InputError
 from xlotkit.record import ATMOSPHERE_PA, Record
 
@@ -62,18 +61,6 @@ def new_output_dir(out: str | Path) -> Path:
             return cand
         except FileExistsError:
             k += 1
-
-
-def _atomic_text(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 # --------------------------------------------------------------------------- stress
@@ -455,9 +442,9 @@ def run_demo(out_dir: str | Path, *, seed: int = 0, noise_bar: float = 0.05,
                                           "tensile_strength", "fbp") if k in result.truth}
     summary = demo_summary(interp, truth, result.message)
     paths["report"] = target / "report.md"
-    _atomic_text(paths["report"], summary)
+    atomic_write_text(paths["report"], summary)
     paths["summary_json"] = target / "summary.json"
-    _atomic_text(paths["summary_json"], json.dumps(
+    atomic_write_text(paths["summary_json"], json.dumps(
         {"truth_bar": {k: v / _BAR for k, v in truth.items()},
          "fcp_error_percent": _fcp_errors(interp, truth["sigma_h"]),
          "stress": interp.stress.to_dict(),

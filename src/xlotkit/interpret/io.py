@@ -43,7 +43,6 @@ import json
 import math
 import os
 import re
-import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
@@ -52,6 +51,7 @@ from typing import Any
 
 import numpy as np
 
+from xlotkit.atomic import atomic_write
 from xlotkit.errors import InputError
 from xlotkit.record import ColumnInfo, Event, PressureReference, Record
 from xlotkit.units import ParsedUnit, from_si, parse_unit, to_si
@@ -1503,16 +1503,14 @@ def write_log(record: Record, path: str | os.PathLike, *, overwrite: bool = Fals
     out += [",".join(row) for row in zip(*mats)]
     text = "\n".join(head + out) + "\n"
     p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
+    def refuse_if_appeared() -> None:
         if p.exists() and not overwrite:   # appeared meanwhile
             raise InputError("file exists; pass overwrite=True to replace it", file=p,
                              key="overwrite", expected="a new file name or overwrite=True")
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+
+    atomic_write(p, write, before_replace=refuse_if_appeared)
     return p

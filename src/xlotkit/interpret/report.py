@@ -48,14 +48,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
-import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
+from xlotkit.atomic import atomic_write
 from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
 from xlotkit.interpret.picks.types import Pick
 
@@ -224,21 +223,6 @@ def picks_table(record_picks: RecordPicks):
 
 
 # --------------------------------------------------------------------------- writing
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> None:
-    """Write via a temporary file in the same folder, then :func:`os.replace` into place."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def _holds_report(folder: Path, names) -> bool:
     return any((folder / n).exists() for n in names)
 
@@ -304,15 +288,15 @@ def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress:
     paths: dict[str, Path] = {"dir": target}
     df = picks_table(record_picks)
     p_csv = target / "picks.csv"
-    _atomic_write(p_csv, lambda tmp: df.to_csv(tmp, index=False))
+    atomic_write(p_csv, lambda tmp: df.to_csv(tmp, index=False))
     paths["csv"] = p_csv
     data = picks_to_dict(record_picks, stress)
     p_json = target / "picks.json"
-    _atomic_write(p_json, lambda tmp: tmp.write_text(json.dumps(data, indent=2,
+    atomic_write(p_json, lambda tmp: tmp.write_text(json.dumps(data, indent=2,
                                                                 allow_nan=False) + "\n"))
     paths["json"] = p_json
     for name, fig in figures.items():
         p_png = target / f"{name}.png"
-        _atomic_write(p_png, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
+        atomic_write(p_png, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
         paths[name] = p_png
     return paths

@@ -6,12 +6,11 @@ module is safe in servers, tests and the CLI whatever backend is configured.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from xlotkit.atomic import save_figure
 from xlotkit.interpret.phases import Segmentation
 from xlotkit.record import Record
 from xlotkit.units import from_si
@@ -50,7 +49,7 @@ def _x_at(record: Record, t: float):
 
 
 def plot_record(record: Record, segmentation: Segmentation | None = None, *, ax=None,
-                path: str | os.PathLike | None = None):
+                path: str | Path | None = None):
     """Plot pressure [bar] and pump/return rate [l/min] against time.
 
     Parameters
@@ -156,23 +155,5 @@ def plot_record(record: Record, segmentation: Segmentation | None = None, *, ax=
               ncol=min(len(handles), 6), framealpha=0.85)
 
     if path is not None:
-        _save_atomic(fig, Path(path))
+        save_figure(fig, path, dpi=120)
     return fig
-
-
-def _save_atomic(fig, path: Path) -> None:
-    """Save ``fig`` to a temporary file beside ``path`` and rename it into place."""
-    path = Path(path)
-    fmt = path.suffix.lstrip(".").lower() or "png"
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".{fmt}",
-                               dir=str(path.parent if str(path.parent) else "."))
-    os.close(fd)
-    try:
-        fig.savefig(tmp, format=fmt, dpi=120)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise

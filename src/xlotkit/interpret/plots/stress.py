@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from xlotkit.atomic import save_figure
 from xlotkit.errors import InputError
 from xlotkit.interpret.stress import (
     SigmaHEstimate,
@@ -37,7 +38,7 @@ _EQ_STYLE = {"C.18": ("tab:red", "s"), "C.19": ("tab:purple", "o")}
 
 def _save(fig: Figure, path: str | Path | None) -> None:
     if path is not None:
-        fig.savefig(path, dpi=150)
+        save_figure(fig, path, dpi=150)
 
 
 def _estimate_points(estimate: Any

@@ -1,0 +1,70 @@
+"""Writing files so that a crash never leaves a half-written result.
+
+Every file xlotkit writes (logs, reports, plots) goes through :func:`atomic_write`: the content
+is written to a temporary file in the target folder and moved into place with
+:func:`os.replace`, which is atomic on one file system.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+__all__ = ["atomic_write", "atomic_write_text", "save_figure"]
+
+
+def atomic_write(path: str | Path, write: Callable[[Path], None], *,
+                 before_replace: Callable[[], None] | None = None) -> Path:
+    """Write ``path`` through a temporary sibling file.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file; its folder must exist.
+    write : callable
+        ``write(tmp_path)`` writes the whole content to ``tmp_path``.
+    before_replace : callable, optional
+        Called after writing, just before the move (e.g. to refuse if the target appeared
+        meanwhile); an exception here leaves the target untouched.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    # Keep the real suffix last so writers that infer the format from it still work.
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}",
+                               dir=path.parent)
+    os.close(fd)
+    try:
+        write(Path(tmp))
+        if before_replace is not None:
+            before_replace()
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 text (``\\n`` line ends) atomically."""
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+
+    return atomic_write(path, write)
+
+
+def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:
+    """Save a matplotlib figure atomically; the format follows the suffix (default PNG)."""
+    path = Path(path)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    return atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
