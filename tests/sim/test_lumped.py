@@ -1,6 +1,7 @@
 """Lumped XLOT model (xlotkit.sim.lumped): physics checks, balance, determinism, validation."""
 
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,6 +10,8 @@ from xlotkit import InputError, Record
 from xlotkit.sim.lumped import (
     LumpedScene,
     fracture_compliance,
+    load_lumped_scene,
+    reopening_pressure,
     simulate_lumped,
     standard_lumped_scene,
 )
@@ -62,7 +65,9 @@ def test_two_cycle_run_is_fast():
 
 
 def _scene(schedule, **kw):
-    base = dict(schedule=schedule, leakoff_coefficient=0.0, wall_leak_index=0.0)
+    # no leak-off and no entry loss: the closed forms below have one pressure and no leak
+    base = dict(schedule=schedule, leakoff_coefficient=0.0, wall_leak_index=0.0,
+                nwb_coefficient=0.0)
     base.update(kw)
     return standard_lumped_scene(**base)
 
@@ -186,6 +191,8 @@ def test_phase_that_never_ends_is_stopped_with_message():
     (dict(fluid_compressibility=1e-9), "fluid_compressibility"),
     (dict(initial_pressure=40e6), "initial_pressure"),
     (dict(colour="red"), "colour"),
+    (dict(reopening="hoop"), "reopening"),
+    (dict(nwb_coefficient=-1.0), "nwb_coefficient"),
 ])
 def test_validation_errors_name_the_key(kw, key):
     with pytest.raises(InputError) as exc:
@@ -196,4 +203,132 @@ def test_validation_errors_name_the_key(kw, key):
 def test_scene_requires_a_schedule():
     with pytest.raises(InputError) as exc:
         LumpedScene(schedule=[Pump(Q, volume=1.0)])
+    assert exc.value.key == "schedule"
+
+
+# ------------------------------------------------------------------ reopening at the wall
+def test_reopening_pressure_formula_and_its_floor_at_sigma_h():
+    assert reopening_pressure(30e6, 35e6, 20e6) == 35e6           # 3 sh - sH - p0 (C.13)
+    # sigma_H > 2 sigma_h - p0: the wall's hoop stress is below sigma_h -> sigma_h
+    assert reopening_pressure(30e6, 45e6, 20e6) == 30e6
+    assert reopening_pressure(30e6, 35e6, 20e6, "sigma_h") == 30e6
+
+
+def test_standard_scene_recovers_t0_from_fbp_minus_reopening(standard):
+    sc = standard_lumped_scene()
+    tr = standard.truth
+    assert sc.reopening == "wellbore"
+    assert tr["reopening_pressure_model"] == pytest.approx(35e6)
+    assert tr["reopening_pressures"][0] == pytest.approx(35e6, abs=1.0)  # event: ~1e-5 Pa
+    assert tr["fbp"] - tr["reopening_pressures"][0] == pytest.approx(3e6, rel=0.01)
+    # from the record alone (0.05 s samples): the two cycle peaks; each sample is at most
+    # one interval (~6 kPa at Q/C_w) below its peak, so T0 is within ~0.4 %
+    fine = simulate_lumped(sc.replace(dt=0.05)).record
+    cyc2 = fine.t >= tr["phases"][4]["t_start"]
+    t0 = fine.pressure[~cyc2].max() - fine.pressure[cyc2].max()
+    assert t0 == pytest.approx(sc.tensile_strength, rel=0.01)
+    assert standard.record.meta["reopening_pressure_model"] == pytest.approx(35e6)
+
+
+def test_reopening_at_sigma_h_still_available():
+    r = simulate_lumped(standard_lumped_scene(reopening="sigma_h"))
+    tr = r.truth
+    assert tr["reopening_pressure_model"] == 30e6
+    assert tr["reopening_pressures"][0] == pytest.approx(30e6, abs=1.0)
+    # the second cycle then never sees P_r: its peak is the propagation pressure
+    cyc2 = r.record.t >= tr["phases"][4]["t_start"]
+    assert r.record.pressure[cyc2].max() < 32e6
+    assert tr["mass_balance_error"].max() < 1e-8
+
+
+def test_entry_loss_keeps_closure_on_the_fracture_pressure(standard):
+    tr = standard.truth
+    sh = 30e6
+    for tc in tr["closure_times"]:
+        i = np.searchsorted(tr["t"], tc)
+        # the fracture closes at sigma_h (event tolerance 1e-10 s; 1 mPa is generous) and
+        # with no inflow to the fracture the well sees the same pressure
+        assert tr["fracture_pressure"][i] == pytest.approx(sh, abs=1e-2)
+        assert tr["pressure"][i] == pytest.approx(sh, abs=1e3)
+    # ISIP below the last pumping pressure by k Q_f^2 (~3 bar at ~500 l/min into the crack)
+    for cyc in (1, 2):
+        drop = tr["last_pump_pressure"][cyc] - tr["isip"][cyc]
+        assert 0.25e6 < drop < 0.31e6
+
+
+# ------------------------------------------------------------------ scene files
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "lumped_standard.toml"
+
+
+def test_example_toml_is_the_standard_scene():
+    a = load_lumped_scene(EXAMPLE)
+    b = standard_lumped_scene()
+    for name in ("sigma_h", "sigma_H", "pore_pressure", "tensile_strength", "youngs_modulus",
+                 "toughness", "geometry", "reopening", "nwb_coefficient", "density",
+                 "viscosity", "leakoff_coefficient", "wall_leak_index", "dt", "seed"):
+        va, vb = getattr(a, name), getattr(b, name)
+        assert va == (vb if isinstance(vb, str) else pytest.approx(vb, rel=1e-15)), name
+    ra, rb = simulate_lumped(a), simulate_lumped(b)
+    # "500 l/min" through pint is 1 ulp off 0.5/60: round-off-level differences only
+    np.testing.assert_allclose(ra.record.pressure, rb.record.pressure, rtol=0, atol=1e-3)
+    assert [p["end"] for p in ra.truth["phases"]] == [p["end"] for p in rb.truth["phases"]]
+
+
+def _toml(tmp_path, text):
+    f = tmp_path / "scene.toml"
+    f.write_text(text)
+    return f
+
+
+_MIN = """
+[stress]
+sigma_h = "30 MPa"
+sigma_H = "35 MPa"
+pore_pressure = "200 bar"
+[schedule]
+[[schedule.phase]]
+kind = "pump"
+rate = "500 l/min"
+volume = "1 m3"
+"""
+
+
+def test_from_dict_units_and_defaults(tmp_path):
+    sc = load_lumped_scene(_toml(tmp_path, _MIN + '[fluid]\nviscosity = "10 cP"\n'
+                                 '[rock]\ntoughness = "3 MPa*m**0.5"\n'))
+    assert sc.pore_pressure == pytest.approx(20e6)
+    assert sc.viscosity == pytest.approx(0.01)
+    assert sc.toughness == pytest.approx(3e6)
+    assert sc.schedule.phases[0].rate == pytest.approx(Q)
+    assert sc.completion is None
+
+
+@pytest.mark.parametrize("extra,key", [
+    ('[stress.extra]\nsigma_X = 1\n', "stress.extra"),
+    ('[rocks]\nE = 1\n', "rocks"),
+    ('[output]\nseed = 1.5\n', "output.seed"),
+    ('[rock]\nyoungs_modulus = "6 m"\n', "rock.youngs_modulus"),
+    ('[rock]\npoisson_ratio = 0.7\n', "rock.poisson_ratio"),
+    ('[well]\ncasing_id = "-1 in"\n', "well.casing_id"),
+    ('[fracture]\nreopening = "hoop"\n', "fracture.reopening"),
+])
+def test_from_dict_errors_name_the_key(tmp_path, extra, key):
+    with pytest.raises(InputError) as exc:
+        load_lumped_scene(_toml(tmp_path, _MIN + extra))
+    assert exc.value.key == key, str(exc.value)
+    assert exc.value.file is not None
+
+
+def test_from_dict_out_of_range_names_key_value_and_range():
+    import tomllib
+    d = tomllib.loads(_MIN.replace('"35 MPa"', '"25 MPa"'))
+    with pytest.raises(InputError) as exc:
+        LumpedScene.from_dict(d)
+    e = exc.value
+    assert e.key == "stress.sigma_H" and "25000000" in str(e) and "[3e+07" in e.expected
+
+
+def test_from_dict_needs_a_schedule():
+    with pytest.raises(InputError) as exc:
+        LumpedScene.from_dict({"stress": {"sigma_h": 30e6}})
     assert exc.value.key == "schedule"

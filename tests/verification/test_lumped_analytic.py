@@ -39,12 +39,13 @@ def test_kgd_storage_toughness_propagation_matches_closed_form():
 
         Q t = C_w (sigma_h + K/sqrt(pi L) - p_init) + 2 sqrt(pi) h K L^1.5 / E'
 
-    i.e. t(L) in closed form, monotone for L > L_s; invert it at each sample time.
+    i.e. t(L) in closed form, monotone for L > L_s; invert it at each sample time. (No
+    entry loss: the closed form has one pressure for well and fracture.)
     """
     k, h = 1e6, 10.0
     sc = standard_lumped_scene(schedule=Schedule([Pump(Q, volume=3.0)]), geometry="kgd",
                                toughness=k, fracture_height=h, leakoff_coefficient=0.0,
-                               wall_leak_index=0.0)
+                               wall_leak_index=0.0, nwb_coefficient=0.0)
     r = simulate_lumped(sc)
     tr, rec = r.truth, r.record
     cw, ep, sh, p_init = sc.c_well, sc.e_prime, sc.sigma_h, sc.p_initial
@@ -117,3 +118,69 @@ def test_flowback_two_straight_lines_meet_at_closure():
     t_x = (b_post - b_pre) / (k_pre - k_post)
     assert t_x == pytest.approx(t_c, abs=1e-3)
     assert (k_pre * t_x + b_pre) ** 2 == pytest.approx(sc.sigma_h, rel=1e-7)
+
+
+def test_reopening_at_the_wall_eq_c13_and_t0_from_fbp_minus_pr():
+    """Second cycle reopens at P_r = 3 sigma_h - sigma_H - p0 (Eq. C.13), so FBP - P_r = T0.
+
+    Before P_r the closed fracture is sealed at the wall: the system stiffness is the well's
+    alone, also above sigma_h (no leak-off here, so the rise is exactly Q / C_w).
+    """
+    sc = standard_lumped_scene(leakoff_coefficient=0.0, wall_leak_index=0.0)
+    r = simulate_lumped(sc)
+    tr, rec = r.truth, r.record
+    pr = 3 * 30e6 - 35e6 - 20e6
+    assert tr["reopening_pressure_model"] == pr == sc.reopening_pressure
+    assert len(tr["reopening_pressures"]) == 1
+    # event located to 1e-10 s at dp/dt = Q/C_w ~ 0.12 MPa/s: 1e-5 Pa; 1 Pa is generous
+    assert tr["reopening_pressures"][0] == pytest.approx(pr, abs=1.0)
+    t0 = tr["fbp"] - tr["reopening_pressures"][0]
+    assert t0 == pytest.approx(sc.tensile_strength, rel=0.01)
+    # sealed: storage-only slope between sigma_h + 0.5 MPa and P_r - 0.5 MPa
+    t_r = tr["reopening_times"][0]
+    pump2 = tr["phases"][4]
+    m = (rec.t > pump2["t_start"]) & (rec.t < t_r) & (rec.pressure > 30.5e6) & (
+        rec.pressure < pr - 0.5e6)
+    assert m.sum() > 20
+    slope = np.polyfit(rec.t[m], rec.pressure[m], 1)[0]
+    assert slope == pytest.approx(Q / sc.c_well, rel=1e-9)
+    # then the fracture takes the well's excess at once: a reopening peak and a drop
+    after = rec.pressure[(rec.t > t_r) & (rec.t < t_r + 5)]
+    assert after.max() < sc.sigma_h + 1e6
+
+
+def test_entry_loss_drops_well_pressure_by_k_q2_at_shut_in():
+    """Well pressure = fracture pressure + k Q_f^2 while the fracture takes Q_f.
+
+    No leak-off: the fracture's inflow in the last pump step is dV_f/dt from the truth
+    history, and the well-to-fracture difference at shut-in is exactly k Q_f^2.
+    """
+    k = 4.32e9
+    sched = Schedule([Pump(Q, volume=2.0), ShutIn(duration=60.0)])
+    sc = standard_lumped_scene(schedule=sched, leakoff_coefficient=0.0, wall_leak_index=0.0,
+                               nwb_coefficient=k)
+    r = simulate_lumped(sc)
+    tr, rec = r.truth, r.record
+    t_si = tr["phases"][0]["t_end"]
+    t, p, pf, vf = tr["t"], tr["pressure"], tr["fracture_pressure"], tr["fracture_volume"]
+    dt = np.diff(t)
+    q_f = np.diff(vf) / np.where(dt > 0, dt, 1.0)
+    # propagation steps of the pump phase (>= 0.1 s: shorter event steps lose digits in
+    # the V_f difference; the solver itself works with the inflow, not the difference)
+    m = (t[1:] > tr["breakdown_time"] + 10.0) & (t[1:] <= t_si) & (dt >= 0.1)
+    assert m.sum() > 50
+    # backward-Euler inflow, Brent to round-off: measured ~1e-13
+    np.testing.assert_allclose((p - pf)[1:][m], k * q_f[m] ** 2, rtol=1e-8)
+    drop = tr["last_pump_pressure"][1] - tr["isip"][1]
+    # the last full step vs the end of the phase (a 1e-10 s event step later): ~1e-10
+    assert drop == pytest.approx(k * q_f[m][-1] ** 2, rel=1e-6)
+    # ~98 % of the pumped rate enters the fracture (the rest compresses the well)
+    assert drop == pytest.approx(k * Q**2, rel=0.05)
+    # the well then falls to the fracture pressure within seconds (2 C_w k Q_f ~ 5 s):
+    # 30 s later the two differ by < 1 % of the drop
+    j = np.searchsorted(rec.t, t_si + 30.0)
+    assert np.all(pf <= p + 1e-6)           # the well is never below the fracture here
+    assert abs(rec.pressure[j] - rec.channels["fracture_pressure"][j]) < 0.01 * drop
+    assert rec.pressure[j] == pytest.approx(tr["isip"][1], abs=0.05 * drop)
+    # mass still balances every step
+    assert tr["mass_balance_error"].max() < 1e-8

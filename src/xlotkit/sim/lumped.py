@@ -36,8 +36,33 @@ volume for half-length ``L`` is ``2 pi h L^2 dp / E'``; the penny stiffness
 growth (critical) branch ``dp = dp_c(L)`` with ``dp_c = K_Ic / sqrt(pi L)`` (KGD) or
 ``(K_Ic/2) sqrt(pi/R)`` (penny). Below ``sigma_h`` the fracture is mechanically closed
 (``V_f = 0``), so the system compliance drops from ``C_w + dV_f/dp`` to ``C_w`` exactly at
-``p = sigma_h``; it reopens at ``sigma_h`` in later cycles and propagates again at
-``sigma_h + dp_c(L)``.
+``p_f = sigma_h``; it propagates again at ``sigma_h + dp_c(L)`` once reopened.
+
+*Reopening.* ``reopening="wellbore"`` (default): the mouth of a closed fracture lies in the
+borehole wall, whose hoop stress holds it shut until the well pressure reaches (thesis
+Eq. C.13, no tensile strength left)::
+
+    P_r = max(sigma_h, 3 sigma_h - sigma_H - p_0)                                 (3)
+
+Between closure and ``P_r`` the fracture is *sealed*: no fracture compliance, and no Carter
+leak from its faces (a closed fracture holds no fluid to leak; the open-hole wall leak ``J``
+goes on). At ``P_r`` it reopens at its old size under net pressure ``P_r - sigma_h``; the
+well's excess fills it at constant stored volume (the breakdown jump's zero-time step: at
+fixed ``L`` if ``K_I <= K_Ic``, else growing to ``W(L_j) = W``): a reopening peak, then a
+drop towards propagation, and ``FBP - P_r = T_0``. ``reopening="sigma_h"``: reopens as
+soon as ``p_f`` exceeds ``sigma_h`` (no peak).
+
+*Entry loss.* A near-wellbore (tortuosity) loss between well and fracture while the
+fracture takes fluid at ``Q_f`` (``nwb_coefficient`` ``k``)::
+
+    p = p_f + k max(Q_f, 0)^2,      Q_f = dV_f/dt + Q_Carter                      (4)
+
+``p`` (well, bottom hole) drives the well storage, the choke and the wall leak; ``p_f``
+(fracture mouth) drives ``V_f``, ``K_I`` and closure. At shut-in the well drains the loss
+into the fracture in about ``2 C_w k Q_f`` (a few seconds): the ISIP lies ``k Q_f^2`` below
+the last pumping pressure. Returning flow (``Q_f < 0``) is taken as unrestricted, so
+flowback stiffness and closure are unaffected. Instantaneous jumps (breakdown, reopening)
+are taken without the loss (they are equilibrium jumps of the whole system).
 
 *Stability and the breakdown drop.* Along the critical branch the stored volume
 ``W(L) = C_w (sigma_h + dp_c(L)) + V_f(dp_c(L), L)`` falls with ``L`` while
@@ -68,23 +93,31 @@ Each step solves Eq. (1) in integrated form (backward for the state, trapezoidal
 choke and wall-leak rates, exact for the pump and Carter terms)::
 
     C_w (p' - p) + V_f' - V_f + dt (Q_ret + Q_ret')/2 + dt (Q_w + Q_w')/2
-        + dV_Carter - dV_in = 0
+        + dV_Carter - dV_in = 0,        p' = p_f' + k (x/dt)^2,  x = V_f' - V_f + dV_Carter
 
-for one scalar: ``p'`` on the elastic branch (``L' = L``), or ``ln L'`` on the critical
-branch. Both are monotone, solved with Brent's method to round-off, so the volume balance
+for one scalar: ``p_f'`` on the elastic branch (``L' = L``), or ``ln L'`` on the critical
+branch. With the entry loss on, ``p_f'`` and ``ln L'`` are ill-conditioned over short
+(event) steps, so the unknown is then ``p'`` on the elastic branch (``x`` follows from the
+quadratic ``k x^2/dt^2 + x/C_f = p' - sigma_h - (V_f - dV_Carter)/C_f``) and ``x`` on the
+critical branch (``L'`` from the volume by Newton). All residuals are monotone, solved with
+Brent's method to round-off, so the volume balance
 closes to ~1e-12 relative every step (reported in ``truth["mass_balance_error"]``). The step
-is adaptive (pressure change per step <= ``dp_max``), never longer than the output interval,
-and ends exactly on every output sample. Events are located to 1e-9 s: breakdown,
-closure/reopening at ``sigma_h``, and phase ends on pressure or volume; phase durations and
-rate steps are step boundaries.
+is adaptive (well and fracture pressure change per step <= ``dp_max``), never longer than
+the output interval, and ends exactly on every output sample. Events are located to 1e-9 s:
+breakdown, closure at ``sigma_h`` (on ``p_f``), reopening (``p`` at ``P_r``, or ``p_f`` at
+``sigma_h``), and phase ends on pressure or volume; phase durations and rate steps are step
+boundaries.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import time as _time
-from collections.abc import Callable
+import tomllib
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any, Literal
@@ -94,7 +127,15 @@ from scipy.optimize import brentq
 
 from xlotkit.errors import InputError
 from xlotkit.record import Event, PressureReference, Record
-from xlotkit.sim.schedule import Bleed, Flowback, Pump, Schedule, ShutIn
+from xlotkit.sim.schedule import (
+    _NUM_UNIT,
+    Bleed,
+    Flowback,
+    Pump,
+    Schedule,
+    ShutIn,
+    parse_quantity,
+)
 from xlotkit.sim.well import (
     Column,
     Completion,
@@ -114,6 +155,8 @@ __all__ = [
     "fracture_compliance",
     "fracture_face_area",
     "fracture_volume",
+    "load_lumped_scene",
+    "reopening_pressure",
     "simulate_lumped",
     "stable_length",
     "standard_lumped_scene",
@@ -122,6 +165,10 @@ __all__ = [
 ]
 
 Geometry = Literal["kgd", "penny"]
+Reopening = Literal["wellbore", "sigma_h"]
+
+#: Default near-wellbore entry-loss coefficient [Pa/(m^3/s)^2]: 3 bar at 500 l/min.
+NWB_DEFAULT = 3e5 / (0.5 / 60.0) ** 2
 
 
 # =========================================================================== physics
@@ -129,6 +176,24 @@ def breakdown_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
                        tensile_strength: float) -> float:
     """Hubbert–Willis breakdown pressure ``3 sigma_h - sigma_H - p0 + T0`` [Pa] (Eq. C.11)."""
     return 3.0 * sigma_h - sigma_H - pore_pressure + tensile_strength
+
+
+def reopening_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
+                       model: Reopening = "wellbore") -> float:
+    """Well pressure that reopens a closed fracture [Pa].
+
+    ``"wellbore"``: the fracture mouth sits in the borehole wall, whose hoop stress must be
+    overcome again, now without tensile strength (thesis Eq. C.13)::
+
+        P_r = max(sigma_h, 3 sigma_h - sigma_H - p_0)
+
+    (the ``max``: where the wall's hoop stress is below ``sigma_h``, i.e.
+    ``sigma_H > 2 sigma_h - p_0``, the far field still holds the faces shut up to
+    ``sigma_h``). ``"sigma_h"``: ``P_r = sigma_h`` (a fracture open to the well all along).
+    """
+    if model == "sigma_h":
+        return sigma_h
+    return max(sigma_h, 3.0 * sigma_h - sigma_H - pore_pressure)
 
 
 def fracture_volume(net_pressure: float, size: float, geometry: Geometry, e_prime: float,
@@ -214,6 +279,15 @@ class LumpedScene:
         KGD height h [m] (ignored for penny).
     initial_flaw : float
         Flaw size that starts the fracture at breakdown [m] (default: the hole radius).
+    reopening : {"wellbore", "sigma_h"}
+        Where a closed fracture reopens: ``"wellbore"`` (default) at
+        ``max(sigma_h, 3 sigma_h - sigma_H - p0)`` (thesis Eq. C.13; the mouth is sealed by
+        the wall's hoop stress until then), ``"sigma_h"`` as soon as the well pressure
+        exceeds ``sigma_h`` again.
+    nwb_coefficient : float
+        Near-wellbore (tortuosity) entry loss ``k_nwb`` [Pa/(m^3/s)^2]: the well pressure
+        exceeds the fracture pressure by ``k_nwb Q_f^2`` while the fracture takes fluid at
+        ``Q_f``. Default 4.32e9 (3 bar at 500 l/min); 0 switches it off.
     leakoff_coefficient : float
         Carter C_L [m s^-0.5].
     wall_leak_index : float
@@ -263,6 +337,8 @@ class LumpedScene:
     geometry: Geometry = "penny"
     fracture_height: float = 10.0
     initial_flaw: float = 0.15
+    reopening: Reopening = "wellbore"
+    nwb_coefficient: float = NWB_DEFAULT
     leakoff_coefficient: float = 0.0
     wall_leak_index: float = 0.0
     completion: Completion | None = None
@@ -297,6 +373,11 @@ class LumpedScene:
                              expected="'kgd' or 'penny'")
         _check("fracture_height", self.fracture_height, lo=0.0, hi=1000.0, lo_open=True)
         _check("initial_flaw", self.initial_flaw, lo=0.0, hi=10.0, lo_open=True)
+        if self.reopening not in ("wellbore", "sigma_h"):
+            raise InputError(f"unknown reopening model {self.reopening!r}", key="reopening",
+                             expected="'wellbore' or 'sigma_h'")
+        # 1e13 Pa/(m^3/s)^2 is ~700 bar at 500 l/min: beyond any plausible entry loss.
+        _check("nwb_coefficient", self.nwb_coefficient, lo=0.0, hi=1e13)
         _check("leakoff_coefficient", self.leakoff_coefficient, lo=0.0, hi=1e-2)
         _check("wall_leak_index", self.wall_leak_index, lo=0.0, hi=1e-6)
         if self.completion is not None and not isinstance(self.completion, Completion):
@@ -383,11 +464,49 @@ class LumpedScene:
                                   self.tensile_strength)
 
     @property
+    def reopening_pressure(self) -> float:
+        """Reopening pressure P_r of a closed fracture [Pa] (see :func:`reopening_pressure`)."""
+        return reopening_pressure(self.sigma_h, self.sigma_H, self.pore_pressure,
+                                  self.reopening)
+
+    @property
     def p_initial(self) -> float:
         """Bottom-hole pressure at t = 0 [Pa]."""
         if self.initial_pressure is not None:
             return float(self.initial_pressure)
         return hydrostatic_bottomhole(self.column)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, file: str | None = None) -> LumpedScene:
+        """Build a scene from a mapping laid out like a TOML scene file.
+
+        Sections and keys (numbers are SI; strings may carry units, ``"30 MPa"``,
+        ``"500 l/min"``, ``"12.715 in"``, ``"1.2 sg"``, ``"10 cP"``)::
+
+            title = "..."                      # optional, ignored
+            [stress]    sigma_h, sigma_H, pore_pressure
+            [rock]      tensile_strength, youngs_modulus, poisson_ratio, toughness,
+                        leakoff_coefficient, wall_leak_index
+            [fracture]  geometry, fracture_height, initial_flaw, reopening, nwb_coefficient
+            [well]      casing_id, casing_od, pipe_od, pipe_id, length_md, depth_tvd,
+                        open_hole_length, open_hole_radius, expansion, steel_modulus,
+                        steel_poisson, roughness (-> a Completion; the thesis well's
+                        values where absent), well_compliance, tvd, pipe_friction,
+                        initial_pressure
+            [fluid]     density, viscosity, compressibility
+            [schedule]  see :meth:`xlotkit.sim.schedule.Schedule.from_dict`
+            [output]    dt, noise, resolution, seed, start_time, max_phase_duration, dp_max
+
+        Without a ``[well]`` table the scene has no completion (the thesis well is used).
+
+        Raises
+        ------
+        InputError
+            For an unknown section or key, a value of the wrong type or unit, or one out
+            of range; ``key`` is the dotted path (``stress.sigma_H``) and ``expected``
+            the allowed range.
+        """
+        return _scene_from_dict(data, file=file)
 
     def replace(self, **changes: Any) -> LumpedScene:
         """A validated copy with some fields changed; unknown names raise InputError."""
@@ -425,9 +544,11 @@ class LumpedResult:
 @dataclass
 class _State:
     t: float
-    p: float
+    p: float                  # well (bottom-hole) pressure
     L: float = 0.0            # fracture size (0 while intact)
     broken: bool = False
+    pf: float = math.nan      # fracture(-mouth) pressure; = p when no fluid enters it
+    sealed: bool = False      # closed, mouth held shut by the wall until p reaches P_r
     vf: float = 0.0           # fracture volume
     v_in: float = 0.0
     v_ret: float = 0.0
@@ -445,6 +566,7 @@ class _Step:
 
     dt: float
     p: float
+    pf: float
     L: float
     vf: float
     dv_in: float
@@ -481,11 +603,16 @@ class _Sim:
         self.K = scene.toughness
         self.sh = scene.sigma_h
         self.pb = scene.breakdown_pressure
+        self.pr = scene.reopening_pressure
+        self.k_nwb = scene.nwb_coefficient
         self.J = scene.wall_leak_index
         self.p0 = scene.pore_pressure
         self.CL = scene.leakoff_coefficient
         self.L_stab = stable_length(self.cw, self.geo, self.ep, self.h)
         self.tol_p = 1e-3  # [Pa] band around sigma_h treated as "at closure"
+        # Seal closed fractures only when P_r is measurably above sigma_h; otherwise the
+        # wellbore model is the sigma_h model.
+        self.seal = self.pr > self.sh + self.tol_p
         # Carter increments: area dA created linearly over [a, b].
         self._ca = np.zeros(64)
         self._cb = np.zeros(64)
@@ -494,7 +621,8 @@ class _Sim:
         self._cache: dict[tuple[float, int], float] = {}
         # History of accepted states.
         self.hist: dict[str, list[float]] = {k: [] for k in (
-            "t", "p", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps", "q_in", "q_ret")}
+            "t", "p", "pf", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps", "q_in",
+            "q_ret")}
         self.mb_err: list[float] = []
         self.mb_t: list[float] = []
         self.n_steps = 0
@@ -553,8 +681,12 @@ class _Sim:
 
     # ------------------------------------------------------------------ one step
     def solve(self, s: _State, dt: float, ctx: _Ctx, force_jump: bool = False) -> _Step:
-        cw, sh = self.cw, self.sh
-        is_open = s.broken and s.p > sh + self.tol_p
+        cw, sh, k = self.cw, self.sh, self.k_nwb
+        # The fracture exchanges fluid with the well only when it exists and its mouth is
+        # not sealed by the borehole wall (wellbore reopening model).
+        linked = s.broken and not s.sealed
+        pf0 = s.pf if linked else s.p
+        is_open = linked and pf0 > sh + self.tol_p
         dv_in = ctx.q_pump * dt
         dv_c_old = self.carter_old(s.t, s.t + dt) if (is_open and dt > 0) else 0.0
         c_new = (2.0 * 4.0 / 3.0 * self.CL * math.sqrt(dt)) if is_open else 0.0
@@ -563,9 +695,21 @@ class _Sim:
         A_n = self.area(s.L)
         half = 0.5 * dt
         bleed_like = not isinstance(ctx.phase, Flowback)
+        # Entry loss acts on time-resolved inflow only: zero-duration steps are the
+        # instantaneous equilibrium jumps (breakdown, reopening), taken without it.
+        throttle = k > 0.0 and dt > 0.0 and linked
 
-        def parts(p: float, dp: float, L: float):
-            vf = self.vol(dp, L) if s.broken else 0.0
+        def parts(pf: float, dp: float, L: float, p: float | None = None,
+                  vf: float | None = None):
+            if vf is None:
+                vf = self.vol(dp, L) if linked else 0.0
+            dA = self.area(L) - A_n if linked else 0.0
+            dv_c = dv_c_old + c_new * dA
+            x = (vf - s.vf) + dv_c            # volume that entered the fracture
+            if p is None:
+                # Well pressure: fracture pressure + k Q_f^2 while the fracture takes
+                # fluid (backward Euler: Q_f = x / dt, the step-mean inflow).
+                p = pf + k * (x / dt) ** 2 if (throttle and x > 0.0) else pf
             if bleed_like:
                 q_ret = ctx.q_bleed
                 dv_ret = q_ret * dt
@@ -574,13 +718,11 @@ class _Sim:
                 ps, q_ret = choke_surface_pressure(p, ctx.zeta, self.col)
                 dv_ret = half * (q_ret_n + q_ret)
             dv_w = half * (wall_n + self.J * (p - self.p0))
-            dA = self.area(L) - A_n if s.broken else 0.0
-            dv_c = dv_c_old + c_new * dA
-            r = cw * (p - s.p) + (vf - s.vf) + dv_ret + dv_w + dv_c - dv_in
-            return r, vf, dv_ret, dv_w, dv_c, q_ret, ps, dA
+            r = cw * (p - s.p) + x + dv_ret + dv_w - dv_in
+            return r, vf, dv_ret, dv_w, dv_c, q_ret, ps, dA, p
 
-        def r_el(p: float) -> float:
-            return parts(p, p - sh, s.L)[0]
+        def r_el(pf: float) -> float:
+            return parts(pf, pf - sh, s.L)[0]
 
         def r_cr(lam: float) -> float:
             L = Ls * math.exp(lam)
@@ -589,15 +731,25 @@ class _Sim:
 
         jump = False
         margin = math.inf
-        if not s.broken:
-            p = _solve_monotone(r_el, s.p)
-            L, dp = 0.0, p - sh
+        p_w: float | None = None
+        vf_w: float | None = None
+        if throttle:
+            res = self._solve_throttled(s, dt, parts, dv_c_old, c_new, A_n, force_jump)
+            if res is None:         # an unstable jump: instantaneous, taken without loss
+                throttle = False
+            else:
+                pf, dp, L, p_w, vf_w, jump, margin = res
+        if throttle:
+            pass
+        elif not linked:
+            pf = _solve_monotone(r_el, pf0)
+            L, dp = s.L, pf - sh
         else:
             p_star = sh + self.dpc(s.L)
             margin = r_el(p_star)
             if margin >= 0.0 and not force_jump:
-                p = _solve_monotone(r_el, min(s.p, p_star), hi=p_star)
-                L, dp = s.L, p - sh
+                pf = _solve_monotone(r_el, min(pf0, p_star), hi=p_star)
+                L, dp = s.L, pf - sh
             else:
                 Ls = max(s.L, self.L_stab)
                 jump = Ls > s.L
@@ -612,8 +764,8 @@ class _Sim:
                     lam = brentq(r_cr, 0.0, hi, xtol=1e-15, rtol=1e-15, maxiter=200)
                 L = Ls * math.exp(lam)
                 dp = self.dpc(L)
-                p = sh + dp
-        r, vf, dv_ret, dv_w, dv_c, q_ret, ps, dA = parts(p, dp, L)
+                pf = sh + dp
+        r, vf, dv_ret, dv_w, dv_c, q_ret, ps, dA, p = parts(pf, dp, L, p_w, vf_w)
         if ps is None:
             ps = self.surface(p, ctx)[0]
         # Relative to the step's volume turnover; for sub-millisecond (event) steps the
@@ -621,13 +773,108 @@ class _Sim:
         # 1e-6 of it (C_w p + V_f).
         scale = max(abs(dv_in) + abs(dv_ret) + abs(dv_w) + abs(dv_c) + cw * abs(p - s.p)
                     + abs(vf - s.vf), 1e-6 * (cw * abs(p) + vf), 1e-300)
-        return _Step(dt, p, L, vf, dv_in, dv_ret, dv_c, dv_w, q_ret, ps, dA, r, scale, jump,
-                     margin)
+        return _Step(dt, p, pf if linked else p, L, vf, dv_in, dv_ret, dv_c, dv_w, q_ret, ps,
+                     dA, r, scale, jump, margin)
+
+    def _solve_throttled(self, s: _State, dt: float, parts, dv_c_old: float, c_new: float,
+                         A_n: float, force_jump: bool):
+        """One step of a linked fracture with the entry loss on (``dt > 0``).
+
+        The fracture pressure is nearly fixed over a short step while the well pressure
+        moves by ``k (x/dt)^2``, so ``p_f`` (or ``ln L``) is an ill-conditioned unknown
+        for sub-millisecond event steps. Instead the unknown is the well pressure ``p`` on
+        the elastic branch, where the inflow follows in closed form, and the inflow
+        volume ``x`` on the critical branch; both residuals are increasing.
+        """
+        sh, k = self.sh, self.k_nwb
+        cf = fracture_compliance(s.L, self.geo, self.ep, self.h)
+        base = s.vf - dv_c_old          # fracture volume left if nothing flowed in
+        inv_dt2 = 1.0 / (dt * dt)
+
+        def el(p: float) -> tuple[float, float]:
+            """(p_f, V_f) at fixed L for well pressure p: the inflow x > 0 solves
+            ``k x^2/dt^2 + x/C_f = p - sh - base/C_f`` (stable root form)."""
+            d = p - sh - base / cf
+            if d > 0.0:
+                x = 2.0 * d / (1.0 / cf + math.sqrt(1.0 / cf**2 + 4.0 * k * d * inv_dt2))
+                vf = max(base + x, 0.0)
+                return p - k * x * x * inv_dt2, vf
+            return p, cf * max(p - sh, 0.0)
+
+        def r_el(p: float) -> float:
+            pf, vf = el(p)
+            return parts(pf, pf - sh, s.L, p, vf)[0]
+
+        p_star = sh + self.dpc(s.L)
+        x_star = cf * (p_star - sh) - base
+        pw_star = p_star + (k * x_star * x_star * inv_dt2 if x_star > 0.0 else 0.0)
+        # Over a very short step, reaching K_Ic would take an absurd well pressure; cap it
+        # (far above any valid scene pressure) so the fluid column stays finite. The
+        # margin keeps its sign and stays continuous in dt.
+        pw_star = min(pw_star, _P_CAP)
+        margin = r_el(pw_star)
+        if margin < 0.0 and pw_star == _P_CAP:
+            raise RuntimeError("entry loss needs a well pressure above 1 GPa")
+        if margin >= 0.0 and not force_jump:
+            p = _solve_monotone(r_el, min(s.p, pw_star), hi=pw_star)
+            pf, vf = el(p)
+            return pf, pf - sh, s.L, p, vf, False, margin
+        if force_jump:
+            return None
+        if s.L < self.L_stab:
+            # K_I > K_Ic at a size that cannot hold: the "unstable" event cuts the step
+            # where the margin crosses 0 and jumps (at dt = 0). Meanwhile keep the trial
+            # on the elastic branch past K_Ic, so the margin stays continuous in dt.
+            p = _solve_monotone(r_el, s.p)
+            pf, vf = el(p)
+            return pf, pf - sh, s.L, p, vf, False, margin
+        # Critical branch: the inflow x fixes L (volume + new-area leak), L fixes p_f.
+        Ls = s.L
+        m_v, m_a = (2.5, 2.0) if self.geo == "penny" else (1.5, 1.0)
+
+        def size(x: float) -> float:
+            target = base + x
+            v1 = self.vol(self.dpc(Ls), Ls)
+            a1 = self.area(Ls)
+            # start right of the root (the no-leak solution); Newton on a convex
+            # increasing function then converges monotonically
+            lam = max(0.0, math.log(max(target, 1e-300) / v1) / m_v)
+            for _ in range(60):
+                ev, ea = v1 * math.exp(m_v * lam), a1 * math.exp(m_a * lam)
+                g = ev + c_new * (ea - A_n) - target
+                step = g / (m_v * ev + m_a * c_new * ea)
+                lam_new = max(lam - step, 0.0)
+                if abs(lam_new - lam) <= 1e-15 * max(1.0, lam):
+                    lam = lam_new
+                    break
+                lam = lam_new
+            return Ls * math.exp(lam)
+
+        def r_x(x: float) -> float:
+            L = size(x)
+            dp = self.dpc(L)
+            return parts(sh + dp, dp, L, sh + dp + k * x * x * inv_dt2)[0]
+
+        x_lo = self.vol(self.dpc(Ls), Ls) + c_new * (self.area(Ls) - A_n) - base
+        x_lo = max(x_lo, 0.0)
+        if r_x(x_lo) >= 0.0:
+            x = x_lo
+        else:
+            hi = max(2.0 * x_lo, 1e-9)
+            while r_x(hi) < 0.0:
+                hi *= 2.0
+                if hi > 1e6:
+                    raise RuntimeError("fracture growth did not bracket")
+            x = brentq(r_x, x_lo, hi, xtol=1e-300, rtol=1e-15, maxiter=300)
+        L = size(x)
+        dp = self.dpc(L)
+        return sh + dp, dp, L, sh + dp + k * x * x * inv_dt2, None, False, margin
 
     def accept(self, s: _State, st: _Step, ctx: _Ctx) -> _State:
         if st.dA > 0.0:
             self.add_area(s.t, s.t + st.dt, st.dA)
-        new = _State(t=s.t + st.dt, p=st.p, L=st.L, broken=s.broken, vf=st.vf,
+        new = _State(t=s.t + st.dt, p=st.p, L=st.L, broken=s.broken, vf=st.vf, pf=st.pf,
+                     sealed=s.sealed,
                      v_in=s.v_in + st.dv_in, v_ret=s.v_ret + st.dv_ret,
                      v_carter=s.v_carter + st.dv_carter, v_wall=s.v_wall + st.dv_wall,
                      ps=st.ps, q_in=ctx.q_pump, q_ret=st.q_ret)
@@ -641,6 +888,9 @@ class _Sim:
         h = self.hist
         for k in h:
             h[k].append(getattr(s, k))
+
+
+_P_CAP = 1e9   # [Pa] ceiling of trial well pressures in the entry-loss solve
 
 
 def _carter_unit(t: float, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -694,16 +944,22 @@ def simulate_lumped(scene: LumpedScene, *,
     LumpedResult
         ``record``: bottom-hole gauge pressure ``pressure`` [Pa], ``rate``/``volume`` (pump),
         ``return_rate``/``return_volume``, ``density`` (surface, constant), channels
-        ``surface_pressure`` [Pa], ``fracture_length`` [m] (KGD half-length or penny
-        radius), ``fracture_volume`` [m^3], ``leakoff_volume`` [m^3]; sampled every
+        ``surface_pressure`` [Pa], ``fracture_pressure`` [Pa] (``p_f``, Eq. 4; equal to
+        ``pressure`` when no fluid enters the fracture), ``fracture_length`` [m] (KGD
+        half-length or penny radius), ``fracture_volume`` [m^3], ``leakoff_volume`` [m^3]; sampled every
         ``scene.dt`` with the scene's noise and resolution on the pressures.
         ``truth``: ``sigma_h``, ``sigma_H``, ``pore_pressure``, ``tensile_strength``,
         ``breakdown_pressure_model`` (Eq. 2), ``initiation_pressure`` / ``initiation_time``
         (when P_b was reached), ``fbp`` and ``breakdown_time`` (pressure and time of the
         first unstable jump; = P_b when ``K_I(P_b, L_0) > K_Ic``),
-        ``closure_times`` / ``reopening_times`` [s], ``phases`` (cycle, kind, t_start,
-        t_end, end reason), ``isip`` per cycle, ``well_compliance``, ``stable_length``,
-        the internal history ``t``, ``pressure`` (clean), ``surface_pressure``,
+        ``closure_times`` / ``reopening_times`` [s], ``reopening_pressures`` (well
+        pressure at each reopening), ``reopening_pressure_model`` (Eq. 3) and
+        ``reopening_model``, ``phases`` (cycle, kind, t_start, t_end, end reason),
+        ``isip`` per cycle (fracture pressure at shut-in: the well pressure once the entry
+        loss has drained), ``last_pump_pressure`` per cycle (well pressure at shut-in),
+        ``nwb_coefficient``, ``well_compliance``, ``stable_length``,
+        the internal history ``t``, ``pressure`` (clean), ``fracture_pressure``,
+        ``surface_pressure``,
         ``fracture_length``, ``fracture_volume``, ``mass_balance_error`` (relative residual
         of Eq. 1 per step) with ``mass_balance_t``, ``mass_balance_cumulative`` (relative
         error of the total balance at the end), counters ``n_steps``, ``n_rejected``,
@@ -716,7 +972,7 @@ def simulate_lumped(scene: LumpedScene, *,
     p_init = sc.p_initial
     ctx0 = _Ctx(ShutIn(duration=1.0))
     ps0 = sim.surface(p_init, ctx0)[0]
-    s = _State(t=0.0, p=p_init, ps=ps0)
+    s = _State(t=0.0, p=p_init, ps=ps0, pf=p_init)
     sim.push(s)
     plan = sc.schedule.expanded()
     n_ph = len(plan)
@@ -724,6 +980,8 @@ def simulate_lumped(scene: LumpedScene, *,
     events: list[Event] = []
     closure_times: list[float] = []
     reopening_times: list[float] = []
+    reopening_ps: list[float] = []
+    last_pump_p: dict[int, float] = {}
     breakdown_time: float | None = None
     initiation_time: float | None = None
     initiation_p: float | None = None
@@ -811,7 +1069,8 @@ def simulate_lumped(scene: LumpedScene, *,
             if dt <= 0.0:
                 dt = t_break - s.t
             st = sim.solve(s, dt, ctx)
-            if (not st.jump and abs(st.p - s.p) > sc.dp_max and dt > 1e-3):
+            if (not st.jump and max(abs(st.p - s.p), abs(st.pf - s.pf)) > sc.dp_max
+                    and dt > 1e-3):
                 dt_adapt = 0.5 * dt
                 sim.n_rejected += 1
                 continue
@@ -821,13 +1080,18 @@ def simulate_lumped(scene: LumpedScene, *,
                 armed[name] = fn
             if not s.broken:
                 armed["breakdown"] = lambda x, ps: sim.pb - x.p
+            elif s.sealed:
+                # closed and held shut at the wall: reopens when the WELL reaches P_r
+                if s.p < sim.pr - sim.tol_p:
+                    armed["reopening_wall"] = lambda x, ps: sim.pr - x.p
             else:
                 if s.L < sim.L_stab:
                     armed["unstable"] = lambda x, ps: x.margin
-                if s.p > sim.sh + sim.tol_p:
-                    armed["closure"] = lambda x, ps: x.p - sim.sh
-                elif s.p < sim.sh - sim.tol_p:
-                    armed["reopening"] = lambda x, ps: sim.sh - x.p
+                # closure and reopening at sigma_h are on the FRACTURE pressure
+                if s.pf > sim.sh + sim.tol_p:
+                    armed["closure"] = lambda x, ps: x.pf - sim.sh
+                elif s.pf < sim.sh - sim.tol_p:
+                    armed["reopening"] = lambda x, ps: sim.sh - x.pf
             fired = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
             hit: list[str] = []
             if fired:
@@ -845,9 +1109,28 @@ def simulate_lumped(scene: LumpedScene, *,
             dt_adapt = min(dt_out, 2.0 * dt_adapt)
             for name in hit:
                 if name == "closure":
-                    closure_times.append(s.t)
+                    # With the entry loss and reopening at sigma_h, a well a few Pa above
+                    # sigma_h can refill a just-closed fracture for an instant; count one
+                    # closure until a reopening has been recorded.
+                    if len(closure_times) <= len(reopening_times):
+                        closure_times.append(s.t)
+                    if sim.seal:
+                        # The faces are in contact; the mouth now needs P_r to reopen.
+                        s.sealed = True
+                        s.pf = s.p
                 elif name == "reopening":
                     reopening_times.append(s.t)
+                    reopening_ps.append(s.p)
+                elif name == "reopening_wall":
+                    # The wall lets go: the fracture, at its old size, meets net pressure
+                    # P_r - sigma_h. A zero-length step redistributes the well's volume
+                    # into it (at fixed L, or growing if K_I > K_Ic) -- the same
+                    # volume-conserving jump as at breakdown.
+                    reopening_times.append(s.t)
+                    reopening_ps.append(s.p)
+                    s.sealed = False
+                    s.pf = s.p
+                    s = sim.accept(s, sim.solve(s, 0.0, ctx), ctx)
                 elif name == "breakdown":
                     # Hubbert-Willis initiation: the flaw becomes a fracture; it jumps at
                     # once if K_I(P_b, L_0) > K_Ic, else later ("unstable").
@@ -874,7 +1157,10 @@ def simulate_lumped(scene: LumpedScene, *,
             messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit max_phase_duration "
                             f"{sc.max_phase_duration:g} s before its end condition")
         if isinstance(ph, Pump) and i_ph + 1 < n_ph and not isinstance(plan[i_ph + 1][1], Pump):
-            isip[cyc] = s.p
+            # ISIP: the well pressure once the entry loss has gone, i.e. the fracture
+            # pressure at shut-in (= the well pressure without entry loss or fracture).
+            isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
+            last_pump_p[cyc] = s.p
         phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label, "t_start": t0,
                            "t_end": s.t, "end": reason})
     report(1.0)
@@ -897,11 +1183,15 @@ def simulate_lumped(scene: LumpedScene, *,
         "breakdown_pressure_model": sc.breakdown_pressure,
         "fbp": fbp, "breakdown_time": breakdown_time,
         "initiation_pressure": initiation_p, "initiation_time": initiation_time,
+        "reopening_pressure_model": sim.pr, "reopening_model": sc.reopening,
         "closure_times": closure_times, "reopening_times": reopening_times,
-        "isip": isip, "phases": phases_out,
+        "reopening_pressures": reopening_ps,
+        "isip": isip, "last_pump_pressure": last_pump_p,
+        "nwb_coefficient": sc.nwb_coefficient, "phases": phases_out,
         "well_compliance": sim.cw, "stable_length": sim.L_stab,
         "initial_pressure": p_init,
-        "t": hist["t"], "pressure": hist["p"], "surface_pressure": hist["ps"],
+        "t": hist["t"], "pressure": hist["p"], "fracture_pressure": hist["pf"],
+        "surface_pressure": hist["ps"],
         "fracture_length": hist["L"], "fracture_volume": hist["vf"],
         "pumped_volume": hist["v_in"], "returned_volume": hist["v_ret"],
         "leakoff_volume": v_leak,
@@ -915,7 +1205,8 @@ def simulate_lumped(scene: LumpedScene, *,
 
 def _view(s: _State, st: _Step) -> _State:
     """The state a trial step would lead to (for event functions)."""
-    return _State(t=s.t + st.dt, p=st.p, L=st.L, broken=s.broken, vf=st.vf,
+    return _State(t=s.t + st.dt, p=st.p, L=st.L, broken=s.broken, vf=st.vf, pf=st.pf,
+                  sealed=s.sealed,
                   v_in=s.v_in + st.dv_in, v_ret=s.v_ret + st.dv_ret, ps=st.ps,
                   margin=st.margin)
 
@@ -974,6 +1265,8 @@ def _make_record(sc: LumpedScene, sim: _Sim, hist: dict[str, np.ndarray],
         "sigma_h": sc.sigma_h, "sigma_H": sc.sigma_H, "pore_pressure": sc.pore_pressure,
         "tensile_strength": sc.tensile_strength,
         "breakdown_pressure_model": sc.breakdown_pressure,
+        "reopening": sc.reopening, "reopening_pressure_model": sc.reopening_pressure,
+        "nwb_coefficient": sc.nwb_coefficient,
         "youngs_modulus": sc.youngs_modulus, "poisson_ratio": sc.poisson_ratio,
         "toughness": sc.toughness, "geometry": sc.geometry,
         "leakoff_coefficient": sc.leakoff_coefficient, "well_compliance": sim.cw,
@@ -985,10 +1278,180 @@ def _make_record(sc: LumpedScene, sim: _Sim, hist: dict[str, np.ndarray],
         reference=PressureReference(kind="bottomhole", depth_m=comp.length_md, absolute=False),
         start_time=sc.start_time, rate=rate, volume=at("v_in"), return_rate=ret,
         return_volume=at("v_ret"), density=np.full(t.size, float(sc.density)),
-        channels={"surface_pressure": ps, "fracture_length": at("L"),
+        channels={"surface_pressure": ps, "fracture_pressure": at("pf"),
+                  "fracture_length": at("L"),
                   "fracture_volume": at("vf"),
                   "leakoff_volume": at("v_carter") + at("v_wall")},
         events=tuple(events), meta=meta)
+
+
+# =========================================================================== scene files
+_STD_KINDS = ("pressure", "rate", "volume", "density", "time", "length", "dimensionless")
+
+# section -> scene field -> dimension (a parse_quantity kind, a pint unit giving the
+# dimension, or a Python type for non-numeric values)
+_SCENE_KEYS: dict[str, dict[str, Any]] = {
+    "stress": {"sigma_h": "pressure", "sigma_H": "pressure", "pore_pressure": "pressure"},
+    "rock": {"tensile_strength": "pressure", "youngs_modulus": "pressure",
+             "poisson_ratio": "dimensionless", "toughness": "Pa*m**0.5",
+             "leakoff_coefficient": "m/s**0.5", "wall_leak_index": "m**3/s/Pa"},
+    "fracture": {"geometry": str, "fracture_height": "length", "initial_flaw": "length",
+                 "reopening": str, "nwb_coefficient": "Pa*s**2/m**6"},
+    "well": {"well_compliance": "m**3/Pa", "tvd": "length", "pipe_friction": bool,
+             "initial_pressure": "pressure"},
+    "fluid": {"density": "density", "viscosity": "Pa*s", "compressibility": "1/Pa"},
+    "output": {"dt": "time", "noise": "pressure", "resolution": "pressure", "seed": int,
+               "start_time": datetime, "max_phase_duration": "time", "dp_max": "pressure"},
+}
+_COMPLETION_KEYS: dict[str, Any] = {
+    "casing_id": "length", "casing_od": "length", "pipe_od": "length", "pipe_id": "length",
+    "length_md": "length", "depth_tvd": "length", "open_hole_length": "length",
+    "open_hole_radius": "length", "expansion": bool, "steel_modulus": "pressure",
+    "steel_poisson": "dimensionless", "roughness": "length"}
+
+
+def _quantity(value: Any, dim: str, key: str) -> float:
+    """SI value of a number or ``"value unit"`` string of dimension ``dim``."""
+    if dim in _STD_KINDS:
+        return parse_quantity(value, dim, key=key)
+    from xlotkit.units import parse_unit, registry, to_si
+
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise InputError(f"must be a number or a 'value unit' string, got {value!r}",
+                         key=key, expected=f"a number in SI ({dim}) or e.g. '1 {dim}'")
+    if not isinstance(value, str):
+        return float(value)
+    m = _NUM_UNIT.match(value)
+    if not m:
+        raise InputError(f"cannot read {value!r}", key=key, expected=f"e.g. '1 {dim}'")
+    num, unit = float(m.group(1)), m.group(2)
+    if not unit:
+        return num
+    pu = parse_unit(unit, key=key)
+    if pu.dimensionality != registry().Unit(dim).dimensionality:
+        raise InputError(f"unit {unit!r} has the wrong dimension", key=key,
+                         expected=f"a unit of the dimension of {dim}")
+    return float(to_si([num], pu)[0])
+
+
+def _convert(value: Any, kind: Any, key: str) -> Any:
+    if kind is str:
+        if not isinstance(value, str):
+            raise InputError(f"must be a string, got {value!r}", key=key, expected="a string")
+        return value.strip().lower()
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"must be true or false, got {value!r}", key=key,
+                             expected="true or false")
+        return value
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"must be an integer, got {value!r}", key=key,
+                             expected="an integer")
+        return value
+    if kind is datetime:
+        if isinstance(value, datetime):
+            return value
+        try:
+            return datetime.fromisoformat(str(value))
+        except ValueError:
+            raise InputError(f"cannot read {value!r} as a date-time", key=key,
+                             expected="an ISO 8601 date-time, e.g. 2014-03-01T08:00:00") \
+                from None
+    return _quantity(value, kind, key)
+
+
+def _scene_from_dict(data: Mapping[str, Any], *, file: str | None = None) -> LumpedScene:
+    def err(exc: InputError, key: str | None = None) -> InputError:
+        return InputError(exc.message, file=file, line=exc.line,
+                          key=exc.key if key is None else key, expected=exc.expected)
+
+    if not isinstance(data, Mapping):
+        raise InputError("a scene must be a table", file=file, key="scene",
+                         expected="a mapping of sections")
+    sections = [*_SCENE_KEYS, "schedule"]
+    kw: dict[str, Any] = {}
+    where: dict[str, str] = {}        # scene field -> dotted key in the file
+    comp_kw: dict[str, Any] = {}
+    compressibility: float | None = None
+    try:
+        for sec, body in data.items():
+            if sec == "title":
+                continue
+            if sec not in sections:
+                raise InputError(f"unknown section {sec!r}", key=sec,
+                                 expected=", ".join(sections + ["title"]))
+            if sec == "schedule":
+                kw["schedule"] = Schedule.from_dict(body, key="schedule")
+                continue
+            if not isinstance(body, Mapping):
+                raise InputError("must be a table", key=sec, expected=f"a [{sec}] table")
+            allowed = dict(_SCENE_KEYS[sec])
+            if sec == "well":
+                allowed.update(_COMPLETION_KEYS)
+            for k, v in body.items():
+                key = f"{sec}.{k}"
+                if k not in allowed:
+                    raise InputError(f"unknown key {k!r}", key=key,
+                                     expected=", ".join(sorted(allowed)))
+                val = _convert(v, allowed[k], key)
+                if sec == "well" and k in _COMPLETION_KEYS:
+                    comp_kw[k] = val
+                elif sec == "fluid" and k == "compressibility":
+                    compressibility = val
+                else:
+                    kw[k] = val
+                    where[k] = key
+            if sec == "well":
+                kw["completion"] = None   # built below, once the fluid is known
+        if "schedule" not in kw:
+            raise InputError("missing [schedule]", key="schedule",
+                             expected="a [schedule] table with [[schedule.phase]] entries")
+        if "completion" in kw:
+            if compressibility is not None:
+                comp_kw["compressibility"] = compressibility
+            try:
+                kw["completion"] = Completion(**comp_kw)
+            except InputError as exc:
+                k = exc.key or ""
+                if k.startswith("completion."):
+                    k = "well." + k[len("completion."):]
+                if k == "well.compressibility":
+                    k = "fluid.compressibility"
+                raise err(exc, k) from None
+        elif compressibility is not None:
+            kw["fluid_compressibility"] = compressibility
+            where["fluid_compressibility"] = "fluid.compressibility"
+        try:
+            return LumpedScene(**kw)
+        except InputError as exc:
+            raise err(exc, where.get(exc.key or "", exc.key)) from None
+    except InputError as exc:
+        if exc.file is None and file is not None:
+            raise err(exc) from None
+        raise
+
+
+def load_lumped_scene(path: str | Path) -> LumpedScene:
+    """Read a lumped scene from a TOML file (layout: :meth:`LumpedScene.from_dict`).
+
+    Raises
+    ------
+    InputError
+        If the file cannot be read or parsed (with the line of a TOML syntax error), or
+        a key is unknown or out of range.
+    """
+    p = Path(path)
+    try:
+        with p.open("rb") as fh:
+            data = tomllib.load(fh)
+    except OSError as exc:
+        raise InputError(f"cannot read scene file: {exc.strerror}", file=str(p)) from None
+    except tomllib.TOMLDecodeError as exc:
+        m = re.search(r"line (\d+)", str(exc))
+        raise InputError(f"not valid TOML: {exc}", file=str(p),
+                         line=int(m.group(1)) if m else None) from None
+    return _scene_from_dict(data, file=str(p))
 
 
 # =========================================================================== standard scene
@@ -1001,7 +1464,9 @@ def standard_lumped_scene(**overrides: Any) -> LumpedScene:
     nu 0.25, apparent K_Ic 3 MPa m^0.5 (so the 0.15 m flaw is unstable at P_b: FBP = P_b),
     penny fracture, Carter C_L 3e-5 m/s^0.5 and a wall leak J = 2e-11 m^3/(s Pa)
     (1.2 l/min per MPa overbalance: a gentle LOP curvature and a visible post-closure
-    decline).
+    decline); reopening at the wall, P_r = 35 MPa (so FBP - P_r = T0), and a 3 bar entry
+    loss at 500 l/min (ISIP below the last pumping pressure). The same scene as a file:
+    ``examples/lumped_standard.toml``.
 
     Program (rates at surface):
 
