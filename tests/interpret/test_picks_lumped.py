@@ -139,31 +139,62 @@ def test_flowback_fcp_against_imposed_sigma_h(name):
         assert all(not cp.fcp.found for cp in rp.cycles)
 
 
-# Cycles where the shut-in holds no closure but the shut-in methods (another module) still
-# report one: a slow, non-sqrt(t) decline of an open fracture is read as closure.
-_SHUTIN_FALSE_CLOSURE = {"no_leakoff", "large_well"}
+#: Methods that read closure from the slope break itself: within 1 % of sigma_h, and their
+#: interval must contain it.
+_BREAK_METHODS = ("tangent", "sqrt_t", "g_function")
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(
-        reason="shut-in methods report closure in a shut-in that never reaches sigma_h",
-        strict=False)) if n in _SHUTIN_FALSE_CLOSURE else n
-    for n in CASES])
+def _slope_change_at_closure(record, truth, phase) -> float | None:
+    """Relative change of dp/dt across the simulated closure inside ``phase`` (lines over the
+    60 s either side), or None when no closure falls in it.
+
+    With some parameters the fracture's compliance and its Carter leak-off vanish together at
+    closure in proportions that leave the decline rate almost unchanged: such a closure is in
+    the record but no shut-in method can see it.
+    """
+    tc = [x for x in truth["closure_times"] if phase.t_start + 30 <= x <= phase.t_end - 30]
+    if not tc:
+        return None
+    t, p = record.t, record.pressure
+    before = (t >= tc[0] - 60) & (t < tc[0])
+    after = (t > tc[0]) & (t <= min(tc[0] + 60, phase.t_end))
+    s1 = np.polyfit(t[before], p[before], 1)[0]
+    s2 = np.polyfit(t[after], p[after], 1)[0]
+    return abs(s2 / s1 - 1.0)
+
+
+@pytest.mark.parametrize("name", list(CASES))
 def test_shutin_fcp_against_imposed_sigma_h(name):
     res, rp = run(name)
     sh = res.truth["sigma_h"]
     for cp in rp.cycles:
         inside = _closure_in(res.truth, cp.index, "shut_in")
-        if inside is None or cp.cycle.phase("shut_in") is None:
+        phase = cp.cycle.phase("shut_in")
+        if inside is None or phase is None:
             continue
         picks = [cp.get("FCP", m) for m in SHUTIN_METHOD_NAMES]
         found = [pk for pk in picks if pk is not None and pk.found]
-        if inside:
+        change = _slope_change_at_closure(res.record, res.truth, phase) if inside else None
+        if inside and change is not None and change > 0.2:
             assert len(found) >= 3, [(pk.method, pk.message) for pk in picks]
             for pk in found:
                 assert abs(pk.value / sh - 1) < 0.05, (name, cp.index, pk.method, pk.value)
+                if pk.method in _BREAK_METHODS:
+                    assert abs(pk.value / sh - 1) < 0.01, (name, cp.index, pk.method, pk.value)
+                    assert pk.low <= sh <= pk.high, (name, cp.index, pk.method, pk.low,
+                                                     pk.high)
+        elif inside:
+            # A closure the decline rate hardly notices (or too close to the end of the
+            # shut-in): "not found" is right, a value must still be near sigma_h.
+            for pk in found:
+                assert abs(pk.value / sh - 1) < 0.05, (name, cp.index, pk.method, pk.value)
         else:
+            # The shut-in ends above sigma_h: an open-fracture decline, however curved, is
+            # not closure.
             assert not found, [(pk.method, pk.value / sh - 1) for pk in found]
+            for pk in picks:
+                assert pk.message.startswith("no closure in the record"), (pk.method,
+                                                                           pk.message)
 
 
 def test_noise_moves_flowback_picks_less_than_their_interval():
@@ -179,9 +210,10 @@ def test_noise_moves_flowback_picks_less_than_their_interval():
                 assert pn.high - pn.low < 0.005 * pc.value
 
 
-@pytest.mark.xfail(reason="pressurisation/shut-in picks by other modules: Pr, ISIP, tangent "
-                   "and sqrt_t move by more than their stated interval with 0.1 bar noise",
-                   strict=False)
+@pytest.mark.xfail(reason="Pr (and slightly ISIP) of the pressurisation module move by more "
+                   "than their stated interval with 0.1 bar noise: on clean data the departure "
+                   "test catches the slight curvature of the storage line (293 instead of "
+                   "300 bar); the shut-in picks now hold", strict=False)
 def test_noise_moves_other_picks_less_than_their_interval():
     _, clean = run("base")
     _, noisy = run("noise")

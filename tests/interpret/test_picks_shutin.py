@@ -28,7 +28,7 @@ ISIP = 160 * BAR
 
 
 def decline(*, dt=1.0, t_pump=600.0, t_shut=3000.0, gc=1.5, stiff=2.5, noise=0.0, quant=0.0,
-            seed=0, x="G", hump=0.0):
+            seed=0, x="G", hump=0.0, wall=0.0):
     """Record + cycle; ``x`` is the variable the pre-closure decline is linear in."""
     t_pre = np.arange(0.0, t_pump, dt)
     t_post = np.arange(t_pump, t_pump + t_shut + 1e-9, dt)
@@ -39,7 +39,8 @@ def decline(*, dt=1.0, t_pump=600.0, t_shut=3000.0, gc=1.5, stiff=2.5, noise=0.0
     pp = 100 * BAR
     p = np.where(xv < xc, ISIP - m * xv - hump * (1 - np.exp(-xv / (0.1 * xc))),
                  pp + (PC - hump - pp) * np.exp(-(xv - xc) * stiff * m / (PC - pp)))
-    p = p + 15 * BAR * np.exp(-d / 2.0)
+    # A constant-rate leak (e.g. a permeable open-hole wall) curves the decline on the G plot.
+    p = p + 15 * BAR * np.exp(-d / 2.0) - wall * d
     t = np.concatenate([t_pre, t_post])
     p = np.concatenate([2 * BAR + (ISIP + 15 * BAR) * np.minimum(1, t_pre / 200), p])
     p = p + np.random.default_rng(seed).normal(0, noise, p.size)
@@ -110,6 +111,44 @@ def test_no_closure_in_a_short_shutin(kw):
         pk = f(rec, cyc)
         assert not pk.found, name
         assert pk.message.startswith("no closure in the record"), (name, pk.message)
+
+
+@pytest.mark.parametrize("kw", [dict(hump=3 * BAR), dict(wall=0.002 * BAR),
+                                dict(hump=3 * BAR, noise=0.1 * BAR, quant=BAR),
+                                dict(x="sqrt", wall=0.002 * BAR, noise=0.05 * BAR)])
+def test_no_closure_in_a_curved_open_fracture_decline(kw):
+    # Closure lies beyond the end of the shut-in; the decline is curved (pressure-dependent
+    # leak-off hump, or a constant-rate leak that steepens it on the G plot) but has no break.
+    rec, cyc = decline(gc=6.0, **{"noise": 0.02 * BAR, **kw}) if kw.get("x") != "sqrt" else \
+        decline(t_shut=600.0, **kw)
+    for name, f in SHUTIN_METHODS.items():
+        pk = f(rec, cyc)
+        assert not pk.found, (name, pk.value / BAR)
+        assert pk.message.startswith("no closure in the record"), (name, pk.message)
+
+
+@pytest.mark.parametrize("kw", [dict(hump=3 * BAR, noise=0.02 * BAR),
+                                dict(wall=0.002 * BAR, noise=0.02 * BAR)])
+def test_closure_at_the_break_of_a_curved_decline(kw):
+    # Closure is where the slope breaks, not where the curvature begins.
+    rec, cyc = decline(**kw)
+    pc = PC - kw.get("hump", 0.0) - kw.get("wall", 0.0) * np.interp(1.5, g_function(
+        np.arange(0, 3000.0), 600.0), np.arange(0, 3000.0))
+    for name in ("tangent", "sqrt_t", "g_function"):
+        pk = SHUTIN_METHODS[name](rec, cyc)
+        assert pk.found, (name, pk.message)
+        assert abs(pk.value - pc) < 0.5 * BAR, (name, pk.value / BAR, pc / BAR)
+        assert pk.low - 0.1 * BAR <= pc <= pk.high + 0.1 * BAR, (name, pk.low / BAR,
+                                                                 pk.high / BAR)
+
+
+def test_diagnosis_follows_the_curvature():
+    assert pick_fcp_g_function(*decline(hump=3 * BAR, noise=0.02 * BAR)).details[
+        "diagnosis"] == "pressure_dependent_leakoff"
+    # |dP/dG| growing towards closure: G dP/dG lies below the line through the origin
+    # tangent to it at closure.
+    assert pick_fcp_g_function(*decline(wall=0.02 * BAR, noise=0.02 * BAR)).details[
+        "diagnosis"] == "height_recession_or_tip_extension"
 
 
 def test_no_shutin_phase():

@@ -49,11 +49,11 @@ from xlotkit.interpret.picks.pressurisation import (
     _user_stretch,
     departure_pick,
     early_decline,
-    find_departure,
     linear_stretch,
     local_fit,
     noise_level,
     pump_phases,
+    quantum,
     quality,
     shutin_phase,
     shutin_time,
@@ -154,22 +154,6 @@ def _prepare(record: Record, cycle: Cycle, method: str, isip: Any
     return _Shut(t, p, t - t_s, t_s, j0, t_pump, float(iv), noise_level(p), ed), None
 
 
-def _closure_gate(sh: _Shut, alpha: float) -> str | None:
-    """Message when the decline stays on its straight line on both sqrt(t) and G plots."""
-    sl = slice(sh.j0, None)
-    held = []
-    for name, x in (("sqrt(t)", np.sqrt(sh.dt[sl])), ("G", g_function(sh.dt[sl], sh.t_pump,
-                                                                       alpha))):
-        d = find_departure(x, sh.p[sl], slope_sign=-1, noise=sh.sigma, prefer_early=True)
-        if d is not None and d.j_dep is None:
-            held.append(name)
-    if held:
-        return (f"no closure in the record: the decline stays on its straight line on the "
-                f"{' and '.join(held)} plot to the end of the shut-in "
-                f"({sh.dt[-1]:.0f} s after pump stop)")
-    return None
-
-
 def _finish(pick: Pick, sh: _Shut, extra: dict[str, Any]) -> Pick:
     d = dict(pick.details)
     d.update(extra)
@@ -198,18 +182,249 @@ def _pressure_at(sh: _Shut, tt: float) -> float:
     return float(np.interp(tt, sh.t, sh.p))
 
 
+# ===================================================================== closure = slope break
+#: Smallest relative change of the decline slope across closure that counts as closure.
+MIN_SLOPE_CHANGE = 0.1
+
+#: Window half-widths of the break scan, as fractions of the post-drop range of G.
+BREAK_SCALES = (0.03, 0.05, 0.08, 0.12)
+
+
+def _window_slopes(x: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares slope of ``y(x)`` over samples ``[lo, hi)`` for every pair (O(n) sums).
+
+    Returns
+    -------
+    slope, n, sxx : ndarray
+        Slope (NaN for a degenerate window), number of samples and centred sum of squares of
+        x (the slope's variance is ``sigma^2 / sxx``).
+    """
+    xc, yc = x - x.mean(), y - y.mean()
+    z = np.zeros(1)
+    c1 = np.concatenate([z, np.cumsum(np.ones(x.size))])
+    cx, cy = np.concatenate([z, np.cumsum(xc)]), np.concatenate([z, np.cumsum(yc)])
+    cxx = np.concatenate([z, np.cumsum(xc * xc)])
+    cxy = np.concatenate([z, np.cumsum(xc * yc)])
+    n = c1[hi] - c1[lo]
+    sx, sy = cx[hi] - cx[lo], cy[hi] - cy[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sxx = (cxx[hi] - cxx[lo]) - sx * sx / n
+        slope = np.where(sxx > 0, ((cxy[hi] - cxy[lo]) - sx * sy / n) / sxx, np.nan)
+    return slope, n, np.where(sxx > 0, sxx, np.nan)
+
+
+@dataclass(frozen=True)
+class _Break:
+    """The significant break of slope of the decline (closure), on p vs G.
+
+    ``i`` indexes the post-drop samples; ``w`` is the scan window [G]; ``s_before`` and
+    ``s_after`` are the slopes dP/dG [Pa] just before and after; ``score`` the jump in
+    excess of the curvature trend and the noise, relative to ``|s_before|``.
+    """
+
+    i: int
+    G: float
+    t: float
+    w: float
+    s_before: float
+    s_after: float
+    score: float
+
+    @property
+    def ratio(self) -> float:
+        """``s_after / s_before``: > 1 the system stiffens at closure, < 1 it flattens."""
+        return self.s_after / self.s_before
+
+    @property
+    def kind(self) -> str:
+        """``"stiffening"`` or ``"flattening"``."""
+        return "stiffening" if self.ratio > 1.0 else "flattening"
+
+
+def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float = 0.0
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Score of a slope break at every sample, for window ``w``.
+
+    Three adjacent windows of width ``w`` in G: ``LL`` and ``L`` before the sample, ``R``
+    after. The jump ``s_R - s_L`` must exceed twice the change ``s_L - s_LL`` over the span
+    before (the curvature an open-fracture decline has anyway -- a smooth curve changes its
+    slope by about as much over two equal spans, a kink does so in one) plus three standard
+    errors of the slopes. Windows must hold ``MIN_LINE_POINTS`` samples each and ``R`` at
+    least 60 % of its width (the new slope has to last). On pressure quantised in steps of
+    ``q`` the pressure must fall by at least ``3 q`` across a window: over less, a window's
+    slope depends on where the steps of the staircase fall (errors that are not independent,
+    so the standard error understates them).
+    """
+    n = G.size
+    i = np.arange(n)
+    l1 = np.searchsorted(G, G - w, "left")
+    l2 = np.searchsorted(G, G - 2 * w, "left")
+    r1 = np.searchsorted(G, G + w, "right")
+    sL, nL, xL = _window_slopes(G, p, l1, i + 1)
+    sLL, nLL, xLL = _window_slopes(G, p, l2, np.maximum(l1, l2 + 1))
+    sR, nR, xR = _window_slopes(G, p, i, r1)
+    ok = ((nL >= MIN_LINE_POINTS) & (nLL >= MIN_LINE_POINTS) & (nR >= MIN_LINE_POINTS)
+          & (G[np.clip(r1 - 1, 0, n - 1)] - G >= 0.6 * w) & (G - G[l2] >= 1.6 * w))
+    jump, trend = sR - sL, sL - sLL
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se = sigma * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
+        score = (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se) / np.abs(sL)
+        rel = np.abs(jump) / np.abs(sL)
+    good = ok & np.isfinite(score) & (sL < 0) & (rel >= MIN_SLOPE_CHANGE) & (score > 0)
+    if q > 0:
+        with np.errstate(invalid="ignore"):
+            good &= np.minimum(np.abs(sL), np.abs(sR)) * w >= 3.0 * q
+    # Lasting: where there is data a window further on, the slope there keeps at least half
+    # the jump (a blip of the derivative is not closure).
+    r2 = np.searchsorted(G, G + 2 * w, "right")
+    sRR, nRR, _ = _window_slopes(G, p, np.minimum(r1, n - 1), r2)
+    far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
+    with np.errstate(invalid="ignore"):
+        good &= ~far | (np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump))
+    return np.where(good, score, -np.inf), sL, sR
+
+
+def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
+    """Closure as the sharpest significant, lasting change of slope of p vs G, or None."""
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    p = sh.p[sl]
+    span = float(G[-1] - G[0])
+    if not span > 0:
+        return None
+    # A noise-free record still has round-off; the floor keeps the score finite.
+    sigma = max(sh.sigma, 1e-7 * float(np.max(np.abs(p))))
+    q = quantum(p)
+    best: _Break | None = None
+    for f in BREAK_SCALES:
+        score, sL, sR = _scan_break(G, p, f * span, sigma, q)
+        k = int(np.argmax(score))
+        if np.isfinite(score[k]) and (best is None or score[k] > best.score):
+            best = _Break(k, float(G[k]), float(sh.t[sh.j0 + k]), f * span, float(sL[k]),
+                          float(sR[k]), float(score[k]))
+    return best
+
+
+def _no_break_message(sh: _Shut) -> str:
+    return ("no closure in the record: the decline shows no significant, lasting change of "
+            f"slope to the end of the shut-in ({sh.dt[-1]:.0f} s after pump stop)")
+
+
+def _closure_gate(sh: _Shut, alpha: float) -> str | None:
+    """Message when the decline never goes through closure (no slope break), else None."""
+    return None if _find_break(sh, alpha) is not None else _no_break_message(sh)
+
+
+def _break_fit(x: np.ndarray, p: np.ndarray, t: np.ndarray, brk: _Break, G: np.ndarray,
+               scale: float = 1.0):
+    """Hinge fit of ``p(x)`` on the samples around the break: ``2 w`` of G before it (a
+    short span, so the open-fracture curvature barely bends the line) and ``w`` after."""
+    w = brk.w * scale
+    sel = (G >= brk.G - 2.0 * w) & (G <= brk.G + w)
+    if sel.sum() < 2 * MIN_LINE_POINTS:
+        return None
+    try:
+        return fit_hinge(x[sel], p[sel], min_points=MIN_LINE_POINTS), sel
+    except (ValueError, TypeError):
+        return None
+
+
 # ===================================================================== straight-line methods
+def _sample_resolution(x: np.ndarray, s1: float, s2: float, x0: float) -> float:
+    """Pressure change over half a sample interval at ``x0`` on the steeper line [Pa]."""
+    k = int(np.clip(np.searchsorted(x, x0), 1, x.size - 1))
+    dx = float(x[k] - x[k - 1])
+    return 0.5 * max(abs(s1), abs(s2)) * abs(dx) if np.isfinite(dx) else 0.0
+
+
+def _bootstrap_values(x: np.ndarray, p: np.ndarray, sel: np.ndarray, h, n: int = 4,
+                      seed: int = 0) -> list[float]:
+    """Breakpoint pressures of the hinge refitted on residual-bootstrap copies of the data.
+
+    The residuals of the hinge fit, resampled with replacement onto the fitted curve, give
+    copies of the data with the record's own noise; the spread of their breakpoints is how
+    far another noise realisation would move the pick.
+    """
+    rng = np.random.default_rng(seed)
+    xs, ps = x[sel], p[sel]
+    fitted = h(xs)
+    resid = ps - fitted
+    out = []
+    for _ in range(n):
+        try:
+            hb = fit_hinge(xs, fitted + rng.choice(resid, resid.size, replace=True),
+                           min_points=MIN_LINE_POINTS)
+        except (ValueError, TypeError):
+            continue
+        if np.isfinite(hb.y0):
+            out.append(float(hb.y0))
+    return out
+
+
+def _break_pick(sh: _Shut, brk: _Break, method: str, x: np.ndarray, x_name: str,
+                alpha: float) -> Pick:
+    """Closure at the slope break on ``p(x)``: breakpoint of a hinge fitted around it."""
+    sl = slice(sh.j0, None)
+    p, t = sh.p[sl], sh.t[sl]
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    base = _break_fit(x, p, t, brk, G)
+    if base is None:
+        return Pick.not_found("FCP", method, "could not fit the lines either side of closure")
+    h, sel = base
+    value = float(h.y0)
+    xs = x[sel]
+    details: dict[str, Any] = {
+        # The line before closure (drawn on plots; on the G plot m G through the origin is
+        # then the tangent to G dP/dG at closure).
+        "slope": h.s1, "slope_stderr": h.s1_stderr, "intercept": h.y0 - h.s1 * h.x0,
+        f"{x_name}_range": (float(xs[0]), float(h.x0)),
+        "line_after": {"slope": h.s2, "intercept": h.y0 - h.s2 * h.x0,
+                       f"{x_name}_range": (float(h.x0), float(xs[-1]))},
+        f"{x_name}_pick": h.x0, f"{x_name}_pick_stderr": h.x0_stderr,
+        "slope_after": h.s2, "closure_signature": brk.kind, "slope_ratio": brk.ratio,
+        "break_score": brk.score, "r2": h.r2, "n": h.n,
+    }
+    if not _inside(sh, value):
+        return Pick.not_found("FCP", method, "no closure in the record: the slope break lies "
+                              "outside the decline", details=details)
+    vals = [value]
+    for scale in (0.6, 1.5):
+        r = _break_fit(x, p, t, brk, G, scale)
+        if r is not None and _inside(sh, r[0].y0):
+            vals.append(float(r[0].y0))
+    vals += [v for v in _bootstrap_values(x, p, sel, h) if _inside(sh, v)]
+    s = float(np.nan_to_num(h.y0_stderr))
+    # The kink lies somewhere between two samples: on clean data that, not the fit, limits
+    # how well the breakpoint pressure is known.
+    res = _sample_resolution(xs, h.s1, h.s2, h.x0)
+    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    details["trial_values"] = vals
+    details["breakpoint_stderr"] = s
+    details["sampling_resolution"] = res
+    q = quality(h.r2, value, low, high, h.n)
+    return Pick("FCP", method, value, float(low), float(high),
+                t=float(np.interp(h.x0, xs, t[sel])),
+                window=(float(t[sel][0]), float(t[sel][-1])),
+                quality=q, message=f"slope break ({brk.kind}: dP/dG x{brk.ratio:.2f})",
+                details=details)
+
+
 def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Callable,
-                          x_name: str, *, window, isip, alpha: float = 1.0) -> tuple[Pick, Any]:
+                          x_name: str, *, window, isip, alpha: float = 1.0
+                          ) -> tuple[Pick, Any, _Break | None]:
     sh, nf = _prepare(record, cycle, method, isip)
     if sh is None:
-        return nf, None
-    if window is None:
-        gate = _closure_gate(sh, alpha)
-        if gate:
-            return _finish(Pick.not_found("FCP", method, gate), sh, {}), sh
+        return nf, None, None
     sl = slice(sh.j0, None)
     x = to_x(sh)[sl]
+    if window is None:
+        brk = _find_break(sh, alpha)
+        if brk is None:
+            nf = Pick.not_found("FCP", method, _no_break_message(sh))
+            return _finish(nf, sh, {}), sh, None
+        return _finish(_break_pick(sh, brk, method, x, x_name, alpha), sh, {}), sh, brk
+    # A user window is the straight stretch: closure is the first departure from it.
     stretch = _user_stretch(sh.t[sl], window)
     pick = departure_pick("FCP", method, x, sh.p[sl], sh.t[sl], slope_sign=-1,
                           stretch=stretch, noise=sh.sigma, x_name=x_name,
@@ -217,24 +432,30 @@ def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Calla
     if pick.found and not _inside(sh, pick.value):
         pick = Pick.not_found("FCP", method, "no closure in the record: the departure lies "
                               "outside the decline", window=pick.window, details=pick.details)
-    return _finish(pick, sh, {}), sh
+    return _finish(pick, sh, {}), sh, None
 
 
 def pick_fcp_sqrt_t(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
                     isip: Pick | float | None = None) -> Pick:
-    """FCP as the first departure from the straight line of p vs ``sqrt(dt)``.
+    """FCP where the slope ``dP/dsqrt(t)`` of p vs ``sqrt(dt)`` changes.
 
     While fluid leaks off by linear flow through the open fracture faces the pressure falls
-    linearly in the square root of shut-in time, ``p = p_1 - m sqrt(dt)``; the derivative
-    ``dP/dsqrt(t)`` is constant. Closure is the first significant departure, either side
-    (stiffening: steeper; reduced leak-off: flatter).
+    about linearly in the square root of shut-in time, ``p = p_1 - m sqrt(dt)``. At closure the
+    derivative ``dP/dsqrt(t)`` changes abruptly -- it steepens when the system stiffens (the
+    fracture compliance is gone), flattens when leak-off drops -- and closure is the pressure
+    at that change: the breakpoint of two lines fitted to p vs ``sqrt(dt)`` just before and
+    just after it. The break is located on the G plot (:func:`_find_break`; a kink in time
+    is a kink on every time axis): it must be sharp (beyond the curvature the open-fracture
+    decline has anyway), significant (beyond the noise) and lasting; without one the record
+    does not reach closure. The gradual curvature of an open-fracture decline is not closure.
 
     Parameters
     ----------
     record, cycle
         Data and the cycle whose shut-in is analysed.
     window : (t0, t1), optional
-        Elapsed-time window [s] of the straight stretch (overrides the automatic stretch).
+        Elapsed-time window [s] of the straight stretch before closure; closure is then the
+        first significant departure from the line through it.
     isip : Pick or float, optional
         ISIP [Pa] (its window's start also marks the end of the pump-off drop).
 
@@ -242,10 +463,13 @@ def pick_fcp_sqrt_t(record: Record, cycle: Cycle, *, window: tuple[float, float]
     -------
     Pick
         ``name="FCP"``, ``method="sqrt_t"``; ``details["slope"]`` is ``dP/dsqrt(t)``
-        [Pa/s^0.5], ``details["sqrt_t_pick"]`` the ``sqrt(dt)`` of closure.
+        [Pa/s^0.5] before closure (``details["slope_after"]`` after),
+        ``details["sqrt_t_pick"]`` the ``sqrt(dt)`` of closure. The interval covers the
+        breakpoint's standard error, the spread over fit spans and over residual-bootstrap
+        copies of the data.
     """
-    pick, sh = _straight_line_method(record, cycle, "sqrt_t", lambda s: np.sqrt(s.dt),
-                                     "sqrt_t", window=window, isip=isip)
+    pick, _, _ = _straight_line_method(record, cycle, "sqrt_t", lambda s: np.sqrt(s.dt),
+                                       "sqrt_t", window=window, isip=isip)
     return pick
 
 
@@ -256,14 +480,24 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
 
     With Carter leak-off from a fracture of constant area, ``p = ISIP - m G`` before closure
     (:func:`g_function`), so ``G dP/dG`` lies on a straight line through the origin. Closure is
-    the first significant departure of p from its straight line in G (equivalently of
-    ``G dP/dG`` from the line ``m G``). The diagnosis compares ``|dP/dG|`` before the straight
-    stretch with its slope ``m``:
+    where ``G dP/dG`` leaves its trend for good: upward when ``dP/dG`` rises (the system
+    stiffens as the walls touch, McClure's reading), downward when it falls (leak-off stops,
+    Barree's reading) -- the sharp, lasting change of slope of p vs G (:func:`_find_break`),
+    at the breakpoint of two lines fitted just before and after it. A gradual curvature
+    of the decline (pressure-dependent leak-off, height recession) is not closure: with
+    pressure-dependent leak-off closure is at the end of the hump, not where it starts.
 
-    * ``normal``: the straight stretch spans the decline up to closure;
-    * ``pressure_dependent_leakoff``: early ``|dP/dG|`` > 1.1 m (``G dP/dG`` humps above the line);
-    * ``height_recession_or_tip_extension``: early ``|dP/dG|`` < 0.9 m (below the line);
-    * ``undetermined``: no straight stretch.
+    The diagnosis compares ``|dP/dG|`` early in the decline (first third before closure) with
+    its value ``m`` just before closure, i.e. ``G dP/dG`` against the line ``m G`` through the
+    origin tangent to it at closure (Barree et al. 2009):
+
+    * ``normal``: early ``|dP/dG|`` within 10 % of ``m`` (on the line);
+    * ``pressure_dependent_leakoff``: early ``|dP/dG|`` > 1.1 m (``G dP/dG`` humps above the
+      line: leak-off faster at high pressure);
+    * ``height_recession_or_tip_extension``: early ``|dP/dG|`` < 0.9 m (``G dP/dG`` below the
+      line, concave upward: ``|dP/dG|`` grows as the decline goes on -- also the signature of
+      a constant-permeability wall leak, whose rate does not fall like Carter's);
+    * ``undetermined``: no closure or too short a decline before it.
 
     Parameters
     ----------
@@ -274,9 +508,9 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
     -------
     Pick
         ``name="FCP"``, ``method="g_function"``; ``details["diagnosis"]``, ``details["G_pick"]``
-        (G at closure), ``details["slope"]`` (``dP/dG`` [Pa]).
+        (G at closure), ``details["slope"]`` (``dP/dG`` [Pa] just before closure).
     """
-    pick, sh = _straight_line_method(
+    pick, sh, brk = _straight_line_method(
         record, cycle, "g_function", lambda s: g_function(s.dt, s.t_pump, alpha), "G",
         window=window, isip=isip, alpha=alpha)
     if sh is None:
@@ -296,45 +530,98 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
 
 
 def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
+    """Decline type from ``|dP/dG|`` early in the decline against its value at closure."""
     d = pick.details
-    if "slope" not in d or pick.window is None:
-        return "undetermined", "no straight stretch on the G plot"
+    if not pick.found or "slope" not in d:
+        return "undetermined", "no closure on the G plot"
     m = -float(d["slope"])
     if not m > 0:
         return "undetermined", "pressure not declining on the G plot"
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
-    t = sh.t[sl]
-    a = int(np.searchsorted(t, pick.window[0]))
-    j_end = int(np.searchsorted(t, pick.t)) if pick.found else G.size
+    j_end = int(np.searchsorted(sh.t[sl], pick.t))
     dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
                         min_points=5)
-    pre = np.arange(0, a)
-    if pre.size < max(5, 0.05 * max(j_end, 1)):
-        return "normal", "G dP/dG on a straight line through the origin until closure"
-    ratio = float(np.nanmedian(-dpdg[pre])) / m
+    early = dpdg[: max(j_end // 3, 0)]
+    early = early[np.isfinite(early)]
+    if early.size < 5:
+        return "undetermined", "too short a decline before closure"
+    ratio = float(np.median(-early)) / m
     if ratio > 1.1:
         return "pressure_dependent_leakoff", f"early G dP/dG above the line ({ratio:.2f} m)"
     if ratio < 0.9:
-        return "height_recession_or_tip_extension", f"early G dP/dG below the line ({ratio:.2f} m)"
+        return ("height_recession_or_tip_extension",
+                f"early G dP/dG below the line ({ratio:.2f} m)")
     return "normal", f"early G dP/dG on the line ({ratio:.2f} m)"
 
 
 # ===================================================================== tangent
+def _tangents_at_break(sh: _Shut, brk: _Break) -> Pick:
+    """Tangent pick from lines on p vs t over ``2 w`` of G before the break and ``w`` after."""
+    method = "tangent"
+    G = g_function(sh.dt, sh.t_pump)
+    post = np.arange(sh.t.size) >= sh.j0
+
+    def lines_at(scale: float):
+        w = brk.w * scale
+        pre = post & (G >= brk.G - 2.0 * w) & (G <= brk.G)
+        aft = post & (G > brk.G) & (G <= brk.G + w)
+        if pre.sum() < MIN_LINE_POINTS or aft.sum() < MIN_LINE_POINTS:
+            return None
+        return fit_line(sh.dt[pre], sh.p[pre]), fit_line(sh.dt[aft], sh.p[aft]), pre, aft
+
+    base = lines_at(1.0)
+    if base is None:
+        return Pick.not_found("FCP", method, "could not fit the tangents either side of closure")
+    fe, fl, pre, aft = base
+    xs, sxs, ys, sys_ = intersect(fe, fl)
+    ie, il = np.flatnonzero(pre), np.flatnonzero(aft)
+    details = {"early_slope": fe.slope, "early_slope_stderr": fe.slope_stderr,
+               "late_slope": fl.slope, "late_slope_stderr": fl.slope_stderr,
+               "early_window": (float(sh.t[ie[0]]), float(sh.t[ie[-1]])),
+               "late_window": (float(sh.t[il[0]]), float(sh.t[il[-1]])),
+               "r2_early": fe.r2, "r2_late": fl.r2, "closure_signature": brk.kind}
+    if not np.isfinite(ys) or not _inside(sh, ys):
+        return Pick.not_found("FCP", method, "no closure in the record: the tangents do not "
+                              "meet inside the decline", details=details)
+    vals = [ys]
+    for scale in (0.6, 1.5):
+        r = lines_at(scale)
+        if r is not None:
+            y2 = intersect(r[0], r[1])[2]
+            if np.isfinite(y2) and _inside(sh, y2):
+                vals.append(y2)
+    s = float(np.nan_to_num(sys_))
+    res = _sample_resolution(sh.dt[post], fe.slope, fl.slope, xs)
+    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    details.update({"sampling_resolution": res, "t_intersection": sh.t_s + xs,
+                    "t_intersection_stderr": sxs,
+                    "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
+                    "intersection_stderr": s})
+    q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
+    return Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
+                window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details)
+
+
 def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
                      isip: Pick | float | None = None,
                      lines: tuple[tuple[float, float], tuple[float, float]] | None = None
                      ) -> Pick:
-    """FCP at the intersection of the early and the late decline tangents on p vs t.
+    """FCP at the intersection of the decline tangents before and after closure, on p vs t.
 
-    The early tangent is the ISIP line (first smooth decline after the pump-off drop); the late
-    tangent is a line through the stabilised decline, by default the last 30 % of the
-    shut-in, placed just after the knee: starting from the last 30 % of the shut-in, the late
-    line is refitted on ``[t*, 1.5 t*]`` (times since shut-in) around the current intersection
-    ``t*`` until it settles. Closure is the intersection ``(t*, p*)``; ``p*`` is the value. The
-    interval combines the propagated covariance (:func:`~xlotkit.interpret.picks.models.intersect`)
-    with the spread for late windows ``[t*, 1.3 t*]`` / ``[t*, 1.8 t*]`` and a shifted early
-    window.
+    Closure shows on p vs t as a knee: the slope changes sharply (steeper when the system
+    stiffens, flatter when leak-off stops). The knee is located as the sharpest significant,
+    lasting change of slope (:func:`_find_break`, on the G axis; without one the record does
+    not reach closure). The early tangent is fitted to the decline just before the knee (on
+    a straight decline it is the ISIP line; on a curved one the ISIP line would cross the late
+    line away from the knee), the late tangent to the decline just after it; closure is their
+    intersection ``(t*, p*)``, ``p*`` the value. The interval combines the propagated covariance
+    (:func:`~xlotkit.interpret.picks.models.intersect`) with the spread over shorter and longer
+    tangent spans.
+
+    With ``window`` or ``lines`` the tangents are the user's: the early tangent is the ISIP line
+    (first smooth decline after the pump-off drop) unless ``lines`` fixes it, the late one the
+    longest stretch of stable slope after it unless ``window``/``lines`` fixes it.
 
     Parameters
     ----------
@@ -348,9 +635,11 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
     if sh is None:
         return nf
     if lines is None:
-        gate = _closure_gate(sh, 1.0)
-        if gate:
-            return _finish(Pick.not_found("FCP", method, gate), sh, {})
+        brk = _find_break(sh, 1.0)
+        if brk is None:
+            return _finish(Pick.not_found("FCP", method, _no_break_message(sh)), sh, {})
+        if window is None:
+            return _finish(_tangents_at_break(sh, brk), sh, {})
 
     def early_fit(shift: int = 0) -> tuple[LineFit, int, int] | None:
         if lines is not None:
