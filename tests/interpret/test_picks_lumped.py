@@ -210,10 +210,6 @@ def test_noise_moves_flowback_picks_less_than_their_interval():
                 assert pn.high - pn.low < 0.005 * pc.value
 
 
-@pytest.mark.xfail(reason="Pr (and slightly ISIP) of the pressurisation module move by more "
-                   "than their stated interval with 0.1 bar noise: on clean data the departure "
-                   "test catches the slight curvature of the storage line (293 instead of "
-                   "300 bar); the shut-in picks now hold", strict=False)
 def test_noise_moves_other_picks_less_than_their_interval():
     _, clean = run("base")
     _, noisy = run("noise")
