@@ -266,3 +266,34 @@ def test_mdem_interface_plane_uses_its_own_normal_and_friction():
                                rtol=1e-9)
     far = np.hypot(*mesh.centroids.T) > 0.9
     assert np.all(np.isfinite(st.stress)) and np.all(st.stress[far & ~cut, 0] > 0)
+
+
+def test_mdem_crack_tip_scaling_applies_only_to_clusters_touching_a_crack():
+    mesh = borehole_mesh(size=4.0, h_wall=2 * math.pi * 0.15 / 32)
+    sc = StrengthScaling(True, reference_area=1e-4)  # default mode "crack_tip"
+    model = MechanicsModel(mesh, RockProperties(tensile_strength=5e6, cohesion=10e6,
+                                                scaling=sc), InSituStress())
+    f = (1e-4 / mesh.areas) ** 0.25
+    s0 = model.initial_state()
+    T, S = model.strengths(s0.cluster_state)
+    # no crack: every cluster has the nominal strength (initiation has no length scale)
+    np.testing.assert_array_equal(T, 5e6)
+    np.testing.assert_array_equal(S, 10e6)
+    c0 = int(np.argmin(np.hypot(*mesh.centroids.T)))
+    s1 = model.fail_clusters(s0, [c0])
+    T, S = model.strengths(s1.cluster_state)
+    tip = model.touches_crack(s1.cluster_state)
+    # exactly the clusters sharing a node with the failed one are scaled (the failed
+    # cluster itself counts too, harmlessly: it is no longer checked)
+    shares = np.isin(mesh.triangles, mesh.triangles[c0]).any(axis=1)
+    np.testing.assert_array_equal(tip, shares)
+    np.testing.assert_allclose(T[tip], 5e6 * f[tip], rtol=1e-14)
+    np.testing.assert_allclose(S[tip], 10e6 * f[tip], rtol=1e-14)
+    np.testing.assert_array_equal(T[~tip], 5e6)
+    # mode "all" scales everything; a bad mode names the key
+    m_all = MechanicsModel(mesh, RockProperties(
+        tensile_strength=5e6, scaling=StrengthScaling(True, 1e-4, mode="all")), InSituStress())
+    np.testing.assert_allclose(m_all.strengths(s0.cluster_state)[0], 5e6 * f, rtol=1e-14)
+    with pytest.raises(InputError) as e:
+        StrengthScaling(True, mode="everywhere")
+    assert e.value.key == "strength_scaling.mode"

@@ -13,6 +13,11 @@ from xlotkit.sim.mechanics.config import (
     SolverOptions,
     StrengthScaling,
 )
+from xlotkit.sim.mechanics.breakdown import (
+    PressureBreakdown,
+    breakdown_pressure,
+    crack_geometry,
+)
 from xlotkit.sim.mechanics.solver import (
     BONDED,
     FAILED_SHEAR,
@@ -47,8 +52,11 @@ __all__ = [
     "MechanicsModel",
     "MechanicsResult",
     "MechanicsState",
+    "PressureBreakdown",
     "RockProperties",
     "SolverOptions",
     "StrengthScaling",
+    "breakdown_pressure",
+    "crack_geometry",
     "wall_pressure_at_first_failure",
 ]

@@ -87,20 +87,35 @@ def strength_scale_factor(area: np.ndarray, reference_area: float,
     return (reference_area / area) ** exponent
 
 
-def strength_fields(rock: RockProperties, area: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def strength_fields(rock: RockProperties, area: np.ndarray,
+                    scaled: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Per-cluster tensile strength and cohesion [Pa].
 
     ``T_i = T * f_size,i * (1 + h U_i)``, ``S_i = S0 * f_size,i * (1 + h U_i)`` with
     ``U_i ~ uniform(-1, 1)`` drawn once per cluster from ``rock.seed`` (a weak cluster is
-    weak in tension and in shear) and ``f_size`` from :func:`strength_scale_factor`
-    (1 when scaling is off).
+    weak in tension and in shear) and ``f_size = (A_ref / A_i)^m`` from
+    :func:`strength_scale_factor`.
+
+    Parameters
+    ----------
+    rock : RockProperties
+    area : ndarray (n_c,)
+        Cluster areas [m^2].
+    scaled : bool
+        Apply the size factor (only if ``rock.scaling.enabled``). With scaling mode
+        ``"crack_tip"`` the model uses the scaled fields for clusters touching a crack and
+        the unscaled ones elsewhere; see :meth:`MechanicsModel.strengths`.
+
+    Returns
+    -------
+    tensile_strength, cohesion : ndarray (n_c,) [Pa]
     """
     n = len(area)
     factor = np.ones(n)
     if rock.heterogeneity > 0.0:
         rng = np.random.default_rng(rock.seed)
         factor = 1.0 + rock.heterogeneity * rng.uniform(-1.0, 1.0, size=n)
-    if rock.scaling.enabled:
+    if scaled and rock.scaling.enabled:
         factor = factor * strength_scale_factor(area, rock.scaling.reference_area,
                                                 rock.scaling.exponent)
     return rock.tensile_strength * factor, rock.cohesion * factor

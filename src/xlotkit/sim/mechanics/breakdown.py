@@ -1,0 +1,327 @@
+"""Breakdown pressure of a pressure-controlled, quasi-static hole test.
+
+An XLOT sees *breakdown* as the hole pressure at which the fracture stops needing more
+pressure to grow: beyond it the fracture runs away. On a model this is the lowest wall
+pressure at which, with the crack filled by the hole fluid, failure keeps advancing the
+crack without bound. It is the larger of
+
+* the initiation pressure (first cluster failure at the intact wall; Hubbert-Willis,
+  Eq. C.11, for an impermeable wall), and
+* the pressure needed to propagate the near-wall crack out of the hole's stress
+  concentration (a toughness-controlled, LEFM quantity).
+
+Which one controls depends on the stresses: with ``3 sigma_h - sigma_H - p0 + T`` well
+above ``sigma_h`` (the Hubbert-Willis test case) the net pressure in the crack at
+initiation drives it through any toughness and breakdown equals initiation; with
+``sigma_H + p0 > 2 sigma_h + T`` the crack initiates below ``sigma_h``, arrests in the hoop
+tension zone, and breakdown is a propagation pressure. See docs/mechanics.md.
+
+Compression positive, SI.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+
+from xlotkit.errors import InputError
+from xlotkit.sim.mechanics.solver import (
+    FAILED_SHEAR,
+    FAILED_TENSILE,
+    PRESET,
+    MechanicsModel,
+    MechanicsState,
+    wall_pressure_at_first_failure,
+)
+
+__all__ = ["PressureBreakdown", "crack_geometry", "breakdown_pressure"]
+
+
+@dataclass(frozen=True, eq=False)
+class PressureBreakdown:
+    """Result of :func:`breakdown_pressure`.
+
+    Attributes
+    ----------
+    pressure : float
+        Breakdown pressure [Pa]: upper end of the final bracket, i.e. the lowest wall
+        pressure tried at which the crack ran away (``nan`` if none did).
+    converged : bool
+        True when the bracket ``[pressure_below, pressure]`` is narrower than ``tol``.
+    reason : str
+        ``"converged"`` or why not (nothing failed / nothing ran away up to ``p_max``,
+        equilibrium failure).
+    initiation_pressure : float
+        Wall pressure [Pa] of the first cluster failure (``nan`` if none).
+    pressure_below : float
+        Highest wall pressure [Pa] tried at which the crack stayed bounded.
+    crack_length : float
+        Length [m] of the stable crack at ``pressure_below``: largest distance of a
+        cluster of the hole-connected crack from the hole wall (0 if no crack).
+    azimuth : float
+        Direction [rad, (-pi, pi]] of the longest wing of the runaway crack at
+        ``pressure`` (see :func:`crack_geometry`).
+    runaway_length : float
+        Crack length [m] at which the run was stopped (at ``pressure``).
+    state_below : MechanicsState
+        Stable state at ``pressure_below``.
+    state_after : MechanicsState or None
+        State at ``pressure`` when the run was stopped.
+    iterations : int
+        Active-set iterations of all equilibrium solves.
+    solves : int
+        Quasi-static steps (``MechanicsModel.step`` calls and search solves).
+    history : list of (float, float)
+        ``(wall pressure [Pa], crack length [m])`` of every stable continuation point,
+        in pressure order (the crack growth curve below breakdown).
+    """
+
+    pressure: float
+    converged: bool
+    reason: str
+    initiation_pressure: float
+    pressure_below: float
+    crack_length: float
+    azimuth: float
+    runaway_length: float
+    state_below: MechanicsState
+    state_after: MechanicsState | None
+    iterations: int
+    solves: int
+    history: list
+
+
+def _hole(model: MechanicsModel) -> tuple[np.ndarray, float]:
+    mesh = model.mesh
+    hn = mesh.hole_nodes
+    if len(hn) == 0:
+        raise InputError("the mesh has no hole wall", key="mesh")
+    c = (np.asarray(mesh.hole_center) if mesh.hole_center is not None
+         else mesh.nodes[hn].mean(axis=0))
+    a = (float(mesh.hole_radius) if mesh.hole_radius is not None
+         else float(np.mean(np.hypot(*(mesh.nodes[hn] - c).T))))
+    return c, a
+
+
+def crack_geometry(model: MechanicsModel, cluster_state: np.ndarray
+                   ) -> tuple[np.ndarray, float, float]:
+    """The crack connected to the hole, its length and the azimuth of its tip.
+
+    Failed clusters (tensile, shear or preset) are connected when they share a node (a
+    zig-zag path of triangles through the mesh is one crack); the hole-connected crack is
+    every failed cluster connected to one that touches the hole wall.
+
+    Parameters
+    ----------
+    model : MechanicsModel
+    cluster_state : ndarray (n_c,)
+
+    Returns
+    -------
+    connected : ndarray of bool (n_c,)
+        Clusters of the hole-connected crack.
+    length : float
+        ``max |x_c - x_0| - a`` over its clusters' farthest nodes [m] (0 if empty).
+    azimuth : float
+        Direction [rad] of the wing holding the farthest node: from the hole centre to
+        the area-weighted centroid of the crack clusters on that side (``nan`` if empty).
+    """
+    cs = np.asarray(cluster_state)
+    mesh = model.mesh
+    cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
+    connected = np.zeros(len(cs), dtype=bool)
+    if not cracked.any():
+        return connected, 0.0, math.nan
+    idx = np.nonzero(cracked)[0]
+    inc = model._incidence[idx]                    # (k, n_nodes)
+    adj = (inc @ inc.T).tocsr()                    # share >= 1 node
+    _, labels = csgraph.connected_components(sp.csr_matrix(adj), directed=False)
+    on_wall = np.zeros(mesh.n_nodes, dtype=bool)
+    on_wall[mesh.hole_nodes] = True
+    touches = on_wall[mesh.triangles[idx]].any(axis=1)
+    good = np.isin(labels, np.unique(labels[touches]))
+    connected[idx[good]] = True
+    if not connected.any():
+        return connected, 0.0, math.nan
+    c, a = _hole(model)
+    nodes = np.unique(mesh.triangles[connected])
+    d = mesh.nodes[nodes] - c
+    r = np.hypot(d[:, 0], d[:, 1])
+    k = int(np.argmax(r))
+    # azimuth of the longest wing: the area-weighted mean position of the crack clusters
+    # on the tip's side of the hole (a single tip node zig-zags by ~h about the path)
+    cc = mesh.centroids[connected] - c
+    w = model.area[connected] * (cc @ d[k] > 0)
+    m = (w[:, None] * cc).sum(axis=0) if w.sum() > 0 else d[k]
+    return connected, max(float(r[k]) - a, 0.0), float(math.atan2(m[1], m[0]))
+
+
+def breakdown_pressure(
+    model: MechanicsModel,
+    p_max: float,
+    state: MechanicsState | None = None,
+    dp: float | None = None,
+    tol: float = 1e4,
+    run_length: float | None = None,
+    max_fill: int = 200,
+) -> PressureBreakdown:
+    """Hole pressure at which the hydraulic fracture runs away (formation breakdown).
+
+    Pressure-controlled quasi-static test of an impermeable rock: the pore pressure of
+    intact clusters stays as in ``state``; clusters of the hole-connected crack
+    (:func:`crack_geometry`) carry the wall pressure (the fluid fills the crack at no
+    pressure loss). At a fixed wall pressure ``p`` the state is *settled*: step with
+    failure (:meth:`MechanicsModel.step`), fill the newly connected clusters with ``p``,
+    and repeat until nothing fails and the filled set no longer changes (stable crack),
+    or the crack is longer than ``run_length`` (runaway).
+
+    Search:
+
+    1. initiation ``p_i`` = first cluster failure (:func:`wall_pressure_at_first_failure`,
+       bisection to ``tol``);
+    2. continuation from the last intact state: settle at ``p_i``, ``p_i + dp``, ... until
+       the crack runs away (every stable state is the start of the next pressure, so the
+       crack history is followed);
+    3. bisection on ``[p_stable, p_run]`` from the stable state (failure is irreversible
+       and the crack only grows with pressure, so the stable state below is a valid start
+       for any higher pressure) until the bracket is narrower than ``tol``.
+
+    Parameters
+    ----------
+    model : MechanicsModel
+    p_max : float
+        Highest wall pressure to try [Pa].
+    state : MechanicsState, optional
+        Start, without overstressed clusters; default ``model.initial_state()``.
+    dp : float, optional
+        Continuation increment [Pa]; default ``(p_max - p_start) / 20``.
+    tol : float
+        Width of the final bracket [Pa].
+    run_length : float, optional
+        Crack length [m] (from the wall) that counts as unbounded growth; default
+        ``min(20 a, 0.4 d_out)`` with ``a`` the hole radius and ``d_out`` the distance from
+        the hole centre to the outer boundary (several metres for a 0.15 m hole, and clear
+        of the boundary conditions).
+    max_fill : int
+        Cap on step/fill cycles at one pressure.
+
+    Returns
+    -------
+    PressureBreakdown
+        ``converged=False`` with a reason if nothing fails or runs away up to ``p_max`` or
+        an equilibrium fails.
+
+    Notes
+    -----
+    A step that finds no equilibrium is reported as a failure (``converged=False``), except
+    when at that same pressure the crack has already grown to at least twice its length at
+    the start of the pressure and beyond ``4 a``: growth at constant pressure followed by
+    loss of a quasi-static equilibrium is the instability, and counts as runaway
+    (``runaway_length`` then is the length reached, below ``run_length``).
+    """
+    if state is None:
+        state = model.initial_state()
+    p_start = float(state.wall_pressure)
+    if not p_max > p_start:
+        raise InputError("p_max must exceed the current wall pressure", key="p_max")
+    dp = (p_max - p_start) / 20.0 if dp is None else float(dp)
+    if not dp > 0:
+        raise InputError("must be positive", key="dp")
+    if not tol > 0:
+        raise InputError("must be positive", key="tol")
+    c, a = _hole(model)
+    if run_length is None:
+        nodes = model.mesh.nodes
+        d_out = float(min(c[0] - nodes[:, 0].min(), nodes[:, 0].max() - c[0],
+                          c[1] - nodes[:, 1].min(), nodes[:, 1].max() - c[1]))
+        run_length = min(20.0 * a, 0.4 * d_out)
+    run_length = float(run_length)
+    base_p = np.array(state.pore_pressure, dtype=float)
+    counters = {"it": 0, "solves": 0, "lost": 0}
+
+    def settle(st: MechanicsState, p: float):
+        """Settle at wall pressure p: (state, ran, ok, why, length, azimuth)."""
+        length, az = 0.0, math.nan
+        start_length = crack_geometry(model, st.cluster_state)[1]
+        for _ in range(max_fill):
+            conn, length, az = crack_geometry(model, st.cluster_state)
+            if length >= run_length:
+                return st, True, True, "ran", length, az
+            pores = np.where(conn, p, base_p)
+            r = model.step(st, wall_pressure=p, pore_pressure=pores, check_failure=True)
+            counters["it"] += r.iterations
+            counters["solves"] += 1
+            if not r.converged:
+                if length >= max(4.0 * a, 2.0 * start_length):
+                    # the crack has at least doubled, beyond 4 hole radii, at this constant
+                    # pressure and no quasi-static equilibrium of its next extension is
+                    # found: that is the instability itself, counted as runaway
+                    counters["lost"] += 1
+                    return st, True, True, "ran (equilibrium lost)", length, az
+                return (st, False, False, f"equilibrium at p_w = {p:g} Pa: {r.reason}",
+                        length, az)
+            st = r.state
+            umax = float(np.max(np.abs(st.displacement)))
+            if not math.isfinite(umax) or umax > 0.1 * run_length:
+                # an "equilibrium" held only by the 1e-9 tangent of open contacts (a failed
+                # region without stiffness) is a mechanism, not a crack that ran
+                return (st, False, False, f"mechanism at p_w = {p:g} Pa: displacement "
+                        f"{umax:.3g} m", length, az)
+            if r.new_failures.size == 0:
+                # the step ran with the crack filled as it is: nothing more moves
+                return st, False, True, "stable", length, az
+        return (st, False, False, f"no stable state after {max_fill} fill cycles",
+                length, az)
+
+    def result(pressure, ok, why, p_i, p_lo, st_lo, len_lo, az, run_len, st_hi, hist):
+        return PressureBreakdown(
+            pressure=pressure, converged=ok, reason=why, initiation_pressure=p_i,
+            pressure_below=p_lo, crack_length=len_lo, azimuth=az, runaway_length=run_len,
+            state_below=st_lo, state_after=st_hi, iterations=counters["it"],
+            solves=counters["solves"], history=hist)
+
+    first = wall_pressure_at_first_failure(model, state, p_max, dp=dp, tol=tol)
+    if first is None:
+        return result(math.nan, False, f"no cluster fails up to p_max = {p_max:g} Pa",
+                      math.nan, p_max, state, 0.0, math.nan, 0.0, None, [])
+    counters["solves"] += first.solves
+    p_i = float(first.pressure)
+    lo, lo_state, lo_len = float(first.state_before.wall_pressure), first.state_before, 0.0
+    history = [(lo, 0.0)]
+    # continuation upwards from initiation
+    p = p_i
+    hi = None
+    while True:
+        st, ran, ok, why, length, az = settle(lo_state, p)
+        if not ok:
+            return result(math.nan, False, why, p_i, lo, lo_state, lo_len, math.nan, 0.0,
+                          st, history)
+        if ran:
+            hi, hi_state, hi_len, hi_az = p, st, length, az
+            break
+        lo, lo_state, lo_len = p, st, length
+        history.append((p, length))
+        if p >= p_max:
+            return result(math.nan, False,
+                          f"crack stays bounded up to p_max = {p_max:g} Pa "
+                          f"(length {length:.3g} m)", p_i, lo, lo_state, lo_len, az, 0.0,
+                          None, history)
+        p = min(p + dp, p_max)
+    # bisection between the stable and the runaway pressure
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        st, ran, ok, why, length, az = settle(lo_state, mid)
+        if not ok:
+            return result(hi, False, why, p_i, lo, lo_state, lo_len, hi_az, hi_len,
+                          hi_state, sorted(history))
+        if ran:
+            hi, hi_state, hi_len, hi_az = mid, st, length, az
+        else:
+            lo, lo_state, lo_len = mid, st, length
+            history.append((mid, length))
+    return result(hi, True, "converged", p_i, lo, lo_state, lo_len, hi_az, hi_len, hi_state,
+                  sorted(history))
