@@ -12,7 +12,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "atomic_write_text", "save_figure"]
+__all__ = ["atomic_write", "atomic_write_text", "fresh_sibling_dir", "save_figure"]
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], None], *,
@@ -68,3 +68,20 @@ def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     return atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=dpi))
+
+
+def fresh_sibling_dir(path: str | Path) -> Path:
+    """Create and return the first free folder ``<path>-2``, ``<path>-3``, ...
+
+    Each candidate is created exclusively, so two runs started at the same time never share
+    one. Used wherever a results folder already holds earlier results.
+    """
+    path = Path(path)
+    k = 2
+    while True:
+        cand = path.with_name(f"{path.name}-{k}")
+        try:
+            cand.mkdir(parents=True)
+            return cand
+        except FileExistsError:
+            k += 1

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -19,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from xlotkit.atomic import atomic_write_text
+from xlotkit.atomic import atomic_write_text, fresh_sibling_dir
 from xlotkit.errors import InputError
+from xlotkit.interpret.stress import GRAVITY
 from xlotkit.record import ATMOSPHERE_PA, Record
 
 __all__ = [
@@ -33,7 +34,6 @@ __all__ = [
     "run_demo",
 ]
 
-GRAVITY = 9.80665
 _BAR = 1e5
 
 Progress = Callable[[float, str], None]
@@ -53,14 +53,7 @@ def new_output_dir(out: str | Path) -> Path:
         return out
     if out.is_dir() and not any(out.iterdir()):
         return out
-    k = 2
-    while True:
-        cand = out.with_name(f"{out.name}-{k}")
-        try:
-            cand.mkdir(parents=True)
-            return cand
-        except FileExistsError:
-            k += 1
+    return fresh_sibling_dir(out)
 
 
 # --------------------------------------------------------------------------- stress
@@ -519,10 +512,3 @@ def demo_summary(interp: Interpretation, truth: dict, sim_message: str) -> str:
     lines += ["", "Plots: `interpretation/*.png`. Picks: `interpretation/picks.csv`, "
               "`interpretation/picks.json`.", ""]
     return "\n".join(lines)
-
-
-def read_inputs(paths: Sequence[str]) -> Record:
-    """Read one log, or a surface + downhole pair merged (see :func:`~xlotkit.interpret.io.read_logs`)."""
-    from xlotkit.interpret.io import read_logs
-
-    return read_logs(list(paths))

@@ -54,7 +54,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from xlotkit.atomic import atomic_write
+from xlotkit.atomic import atomic_write, fresh_sibling_dir
 from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
 from xlotkit.interpret.picks.types import Pick
 
@@ -240,14 +240,7 @@ def _target_dir(out_dir: Path, names, if_exists: str) -> Path:
         return out_dir
     if if_exists == "error":
         raise FileExistsError(f"{out_dir} already holds a pick report; refusing to overwrite it")
-    k = 2
-    while True:
-        cand = out_dir.with_name(f"{out_dir.name}-{k}")
-        try:
-            cand.mkdir()  # exclusive: a concurrent run gets the next number
-            return cand
-        except FileExistsError:
-            k += 1
+    return fresh_sibling_dir(out_dir)
 
 
 def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress: Any = None,
