@@ -16,7 +16,11 @@ import numpy as np
 
 from xlotkit.errors import InputError
 
-__all__ = ["ParsedUnit", "from_si", "parse_unit", "registry", "to_si"]
+__all__ = ["GRAVITY", "ParsedUnit", "from_si", "parse_unit", "registry", "to_si"]
+
+#: Standard gravity [m/s^2] (the one definition: the well model and the stress
+#: conversions must use the same hydrostatic gradient).
+GRAVITY = 9.80665
 
 # Oilfield spellings -> pint expressions. Only the spelling is translated here; the conversion
 # factors all come from pint's definitions.

@@ -37,6 +37,7 @@ import numpy as np
 
 from xlotkit.errors import InputError
 from xlotkit.interpret.picks.types import Pick
+from xlotkit.units import GRAVITY
 
 __all__ = [
     "ATMOSPHERIC_PRESSURE",
@@ -71,8 +72,6 @@ __all__ = [
     "to_emw",
 ]
 
-#: Standard gravity [m/s^2].
-GRAVITY = 9.80665
 #: Density of fresh water, the reference of specific gravity (sg) [kg/m^3].
 WATER_DENSITY = 1000.0
 #: Standard atmosphere [Pa], subtracted from absolute gauge readings.

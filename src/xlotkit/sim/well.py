@@ -51,6 +51,7 @@ from typing import Any
 from scipy.optimize import brentq
 
 from xlotkit.errors import InputError
+from xlotkit.units import GRAVITY
 
 __all__ = [
     "GRAVITY",
@@ -71,8 +72,6 @@ __all__ = [
     "well_compliance",
 ]
 
-#: Standard gravity [m/s^2].
-GRAVITY = 9.80665
 #: One inch [m].
 INCH = 0.0254
 #: Compressibility of water/brine used by the thesis's pipe-flow model, 1 / 2.34 GPa [1/Pa].

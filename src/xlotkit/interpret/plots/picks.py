@@ -149,6 +149,24 @@ def _pick_hline(ax, pk: Pick | None, label: str, color: str) -> None:
                 va="bottom")
 
 
+def _extended_line(line: Mapping[str, Any], pad: float = 0.3, n: int = 30
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Points of a fitted line ``y = slope x + intercept`` over its fit range widened by
+    ``pad`` of the range on each side (so the eye sees where the two lines cross)."""
+    a, b = line["x_range"]
+    span = b - a
+    xx = np.linspace(a - pad * span, b + pad * span, n)
+    return xx, line["slope"] * xx + line["intercept"]
+
+
+def _finish(ax, xlabel: str, ylabel: str, title: str) -> None:
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+
+
 def _no_data(ax, text: str) -> None:
     ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9)
 
@@ -414,11 +432,8 @@ def plot_bilinear(record: Record, cp: CyclePicks) -> Figure:
         ax.axvline(pk.value / _BAR, color="tab:green", ls=":", lw=1)
         ax.annotate(f"FCP {pk.value / _BAR:.1f} bar", (pk.value / _BAR, 0.95),
                     xycoords=("data", "axes fraction"), fontsize=8, color="tab:green")
-    ax.set_xlabel("pressure [bar]")
-    ax.set_ylabel("dp/dt [bar/min]")
-    ax.legend(fontsize=8)
-    ax.set_title(f"cycle {cp.index}: bilinear pressure-decay-rate plot", fontsize=10)
-    ax.grid(alpha=0.3)
+    _finish(ax, "pressure [bar]", "dp/dt [bar/min]",
+            f"cycle {cp.index}: bilinear pressure-decay-rate plot")
     return fig
 
 
@@ -446,11 +461,7 @@ def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
     if pk is not None and "line_open" in pk.details:
         # Lines are y = s t + c in absolute time; shift to time since flowback start.
         for name, col in (("line_open", "tab:orange"), ("line_closed", "tab:red")):
-            ln = pk.details[name]
-            a, b = ln["x_range"]
-            span = b - a
-            xx = np.linspace(a - 0.3 * span, b + 0.3 * span, 30)
-            yy = ln["slope"] * xx + ln["intercept"]
+            xx, yy = _extended_line(pk.details[name])
             ok = yy >= 0
             ax.plot(xx[ok] - t0, yy[ok] / np.sqrt(_BAR), "--", color=col, lw=1.2,
                     label=("open fracture (compliant)" if name == "line_open"
@@ -463,11 +474,8 @@ def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
                     f"({record.reference.kind})", "tab:green")
     elif pk is not None:
         _no_data(ax, pk.message[:90])
-    ax.set_xlabel("time since flowback start [s]")
-    ax.set_ylabel("√(p_choke − p_atm) [√bar]")
-    ax.set_title(f"cycle {cp.index}: flowback through fixed choke", fontsize=10)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    _finish(ax, "time since flowback start [s]", "√(p_choke − p_atm) [√bar]",
+            f"cycle {cp.index}: flowback through fixed choke")
     return fig
 
 
@@ -490,11 +498,8 @@ def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
     if pk is not None and "line_open" in pk.details:
         for name, col, key in (("line_open", "tab:orange", "stiffness_open"),
                                ("line_closed", "tab:red", "stiffness_closed")):
-            ln = pk.details[name]
-            a, b = ln["x_range"]
-            span = b - a
-            xx = np.linspace(a - 0.3 * span, b + 0.3 * span, 30)
-            ax.plot(xx * 1000, (ln["slope"] * xx + ln["intercept"]) / _BAR, "--", color=col,
+            xx, yy = _extended_line(pk.details[name])
+            ax.plot(xx * 1000, yy / _BAR, "--", color=col,
                     lw=1.2, label=f"{name.split('_')[1]}: S = "
                     f"{pk.details[key] / _BAR:.4g} bar/m³")
     if pk is not None and pk.found:
@@ -502,11 +507,8 @@ def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
         _label_pick(ax, vc, pk.value / _BAR, f"FCP {pk.value / _BAR:.1f} bar", "tab:green")
     elif pk is not None:
         _no_data(ax, pk.message[:90])
-    ax.set_xlabel("returned volume [l]")
-    ax.set_ylabel(f"pressure [bar] ({record.reference.kind})")
-    ax.set_title(f"cycle {cp.index}: pressure vs returned volume", fontsize=10)
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    _finish(ax, "returned volume [l]", f"pressure [bar] ({record.reference.kind})",
+            f"cycle {cp.index}: pressure vs returned volume")
     return fig
 
 
