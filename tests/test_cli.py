@@ -140,3 +140,65 @@ def test_inspect_merged_pair(runner):
     assert "cycles" in obj and obj["reference"].startswith("downhole gauge at 910 m")
     assert abs(obj["clock_offset_s"]) > 0
     assert [c["kind"] for c in obj["cycles"]] == ["xlot"] * 5
+
+
+# ====================================================================== simulate
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def test_simulate_happy_path_and_fresh_folder(runner, tmp_path):
+    out = tmp_path / "sim"
+    res = runner.invoke(main, ["simulate", str(EXAMPLES / "scene_standard.toml"),
+                               "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "lumped model: ok" in res.output and f"results in {out}" in res.output
+    assert "sigma_h 300.0 bar" in res.output
+    for name in ("timeseries.h5", "synthetic_log.csv", "summary.json", "scene.toml"):
+        assert (out / name).is_file(), name
+    first = (out / "synthetic_log.csv").read_bytes()
+    # the log goes straight into `pick`
+    res_pick = runner.invoke(main, ["pick", str(out / "synthetic_log.csv"), "--json"])
+    assert res_pick.exit_code == 0, res_pick.output
+    sh = json.loads(res_pick.output[res_pick.output.index("{"):])
+    assert sh["cycles"]
+    # a second run with another seed never touches the first
+    res2 = runner.invoke(main, ["simulate", str(EXAMPLES / "scene_standard.toml"),
+                                "--out", str(out), "--seed", "5"])
+    assert res2.exit_code == 0, res2.output
+    assert f"results in {out}-2" in res2.output
+    assert (out / "synthetic_log.csv").read_bytes() == first
+    assert (tmp_path / "sim-2" / "synthetic_log.csv").read_bytes() != first
+    # nothing left to resume in a finished run
+    res3 = runner.invoke(main, ["simulate", str(EXAMPLES / "scene_standard.toml"),
+                                "--out", str(out), "--resume"])
+    assert res3.exit_code == 2 and "finished" in res3.output
+
+
+def test_simulate_lumped_format_scene(runner, tmp_path):
+    res = runner.invoke(main, ["simulate", str(EXAMPLES / "lumped_standard.toml"),
+                               "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+
+
+def test_simulate_bad_scene_is_one_line_and_exit_2(runner, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[rock]\npermeability = "5000 darcy"\n[schedule]\n[[schedule.phase]]\n'
+                   'kind = "pump"\nrate = "500 l/min"\nvolume = "1 m3"\n')
+    res = runner.invoke(main, ["simulate", str(bad), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith(f"error: {bad}: rock.permeability: value '5000 darcy'")
+    assert "[0, 1e-09] m^2" in lines[0]
+    assert not (tmp_path / "o").exists()
+    res = runner.invoke(main, ["simulate", str(tmp_path / "missing.toml"), "--out",
+                               str(tmp_path / "o")])
+    assert res.exit_code == 2 and res.output.startswith("error: ")
+
+
+def test_simulate_2d_scene_says_the_engine_is_missing(runner, tmp_path):
+    res = runner.invoke(main, ["simulate", str(EXAMPLES / "scene_2d_heterogeneous.toml"),
+                               "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2
+    assert res.output.startswith("error: ") and "MDEM" in res.output
+    assert len(res.output.strip().splitlines()) == 1

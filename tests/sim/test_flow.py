@@ -12,6 +12,9 @@ import pytest
 
 from xlotkit.errors import InputError
 from xlotkit.sim.flow import (
+    crack_opening,
+    crack_permeability,
+    crack_permeability_derivative,
     FlowModel,
     FlowState,
     FlowStepper,
@@ -409,3 +412,58 @@ def test_d_residual_d_permeability(small_mesh, averaging, well):
         fd = (model.residual_and_jacobian(new, old, 1.0, permeability=kp).residual
               - model.residual_and_jacobian(new, old, 1.0, permeability=km_).residual) / (2 * h)
         np.testing.assert_allclose(D[:, j], fd, rtol=1e-5, atol=1e-8 * np.abs(fd).max())
+
+
+# --------------------------------------------------------------------- coupling additions
+def test_well_extra_volume_storage_and_derivatives(small_mesh):
+    """The hole's volume change is stored in the well row as rho(p_w) V_w (difference form):
+    dR_w/dV_w = rho(p_w)/dt, dR_w/dp_w gains c_f rho V_w/dt, the global balance still
+    closes, and a compliance override replaces C_w."""
+    m = small_mesh.n_triangles
+    model = FlowModel(small_mesh, _fluid(), _rock(), WellCondition(rate=1e-5, storage=1e-10))
+    old = FlowState(0.0, np.full(m, P0), P0, np.zeros(m), 2e-4)
+    new = FlowState(2.0, np.full(m, P0 + 1e5), P0 + 3e5, np.zeros(m), 3e-4)
+    r = model.residual_and_jacobian(new, old, 2.0)
+    rho = model.fluid.rho
+    exact = (1e-10 * (rho(P0 + 3e5) - rho(P0)) / model.fluid.compressibility
+             + rho(P0 + 3e5) * 3e-4 - rho(P0) * 2e-4) / 2.0
+    assert r.storage_rate_well == pytest.approx(exact, rel=1e-12)
+    h = 1e-9
+    rp = model.residual_and_jacobian(FlowState(2.0, new.p, new.p_w, new.extra_pore_volume,
+                                               3e-4 + h), old, 2.0).residual
+    assert (rp[-1] - r.residual[-1]) / h == pytest.approx(r.d_residual_d_well_volume,
+                                                          rel=1e-6)
+    assert r.d_residual_d_well_volume == pytest.approx(rho(P0 + 3e5) / 2.0, rel=1e-14)
+    hp = 10.0
+    rq = model.residual_and_jacobian(new.with_x(np.append(new.p, new.p_w + hp)), old, 2.0)
+    assert (rq.residual[-1] - r.residual[-1]) / hp == pytest.approx(
+        r.jacobian[m, m], rel=1e-6)
+    assert np.sum(r.residual) == pytest.approx(-r.mass_rate_imbalance,
+                                               abs=1e-12 * r.throughput)
+    r2 = model.residual_and_jacobian(new, old, 2.0, well_storage=3e-10)
+    assert r2.storage_rate_well - r.storage_rate_well == pytest.approx(
+        2e-10 * (rho(P0 + 3e5) - rho(P0)) / model.fluid.compressibility / 2.0, rel=1e-9)
+    # with_x keeps the well volume
+    assert new.with_x(new.x).well_extra_volume == 3e-4
+
+
+def test_crack_opening_and_permeability_kernels():
+    gaps = np.array([[0.0, 2e-4, 1e-4], [0.0, 0.0, 0.0], [3e-5, 0.0, 0.0]])
+    w, act = crack_opening(gaps)
+    assert np.array_equal(w, [2e-4, 0.0, 3e-5]) and np.array_equal(act[[0, 2]], [1, 0])
+    wh = 1e-5 + w
+    delta = np.array([0.1, 0.2, 0.05])
+    k = crack_permeability(wh, 1e-19, delta)
+    # consistent with Eq. 4.3 (PM k_m) where k_m > 0, and defined for k_m = 0
+    assert np.allclose(k, upscaled_permeability(wh, 1e-19, delta), rtol=1e-14)
+    assert np.allclose(crack_permeability(wh, 0.0, delta), wh ** 3 / (12 * delta),
+                       rtol=1e-14)
+    dk = crack_permeability_derivative(wh, delta)
+    e = 1e-12
+    fd = (crack_permeability(wh + e, 0.0, delta) - crack_permeability(wh - e, 0.0, delta)
+          ) / (2 * e)
+    assert np.allclose(dk, fd, rtol=1e-6)
+    with pytest.raises(InputError):
+        crack_permeability(wh, -1.0, delta)
+    with pytest.raises(InputError):
+        crack_opening(np.zeros((3, 2)))

@@ -14,6 +14,7 @@ from xlotkit.sim.mechanics import (
     RockProperties,
     StrengthScaling,
     breakdown_pressure,
+    crack_tip_toughness,
     wall_pressure_at_first_failure,
 )
 from xlotkit.sim.mechanics import mdem
@@ -113,14 +114,14 @@ def test_breakdown_pressure_is_insensitive_to_wall_resolution_without_scaling():
     assert abs(fine.pressure - hw) < 0.02 * hw
 
 
-def _extension_pressure(h_band, scaling):
+def _extension_pressure(h_band, scaling, half_length=0.5):
     rock = RockProperties(young=E, poisson=NU, tensile_strength=1e6, cohesion=1e12,
                           scaling=scaling)
-    mesh, model, s1, _ = _crack_setup(h_band, 0.5, rock, size=10.0)
+    mesh, model, s1, _ = _crack_setup(h_band, half_length, rock, size=10.0)
     br = wall_pressure_at_first_failure(model, s1, 5e6, dp=0.05e6, tol=1e2,
                                         pressurize_failed=True)
     tip = mesh.centroids[br.clusters]
-    assert np.all(np.abs(tip[:, 0]) > 0.45)  # the crack grows at its tips
+    assert np.all(np.abs(tip[:, 0]) > 0.9 * half_length)  # the crack grows at its tips
     return br.pressure
 
 
@@ -128,16 +129,38 @@ def test_strength_scaling_makes_crack_extension_pressure_mesh_independent():
     # A pressurised crack (half-length 0.5 m) grows when its tip cluster fails. The tip
     # cluster averages a sqrt(r) singular field over its size h, so without scaling the
     # extension pressure grows like sqrt(h) (LEFM: K = p sqrt(pi a) ~ T sqrt(h)); with
-    # T_i = T (A_ref / A_i)^(1/4) ~ h^(-1/2) it does not depend on h.
+    # T_i = T (A_ref / A_i)^(1/4) ~ h^(-1/2) on the singular part of the tip stress
+    # (crack-tip mode) it does not depend on h.
     off = StrengthScaling(enabled=False)
     on = StrengthScaling(enabled=True, reference_area=1e-4)
     p_off = [_extension_pressure(h, off) for h in (0.04, 0.02)]
     p_on = [_extension_pressure(h, on) for h in (0.04, 0.02)]
     d_off = abs(p_off[0] - p_off[1])
     d_on = abs(p_on[0] - p_on[1])
-    # measured: off 0.175 vs 0.120 MPa (ratio ~ sqrt 2), on 0.104 vs 0.101 MPa
+    # measured: off 0.175 vs 0.120 MPa (ratio ~ sqrt 2), on 0.0882 vs 0.0897 MPa
     assert p_off[0] / p_off[1] == pytest.approx(math.sqrt(2), rel=0.1)
     assert d_on < 0.5 * d_off
+    # and the scaled extension is the documented toughness: K = p sqrt(pi a) equals
+    # crack_tip_toughness (1.11 T A_ref^(1/4) = 0.111 MPa sqrt(m)); measured -0.5 % and
+    # +1.4 %. 5 % is more than twice the spread of the three measurements behind the
+    # factor (TIP_TOUGHNESS_FACTOR, +-1 %), which come from the varying tip-cluster shapes.
+    k_ic = crack_tip_toughness(RockProperties(tensile_strength=1e6, scaling=on))
+    for p in p_on:
+        assert p * math.sqrt(math.pi * 0.5) == pytest.approx(k_ic, rel=0.05)
+
+
+@pytest.mark.slow
+def test_given_toughness_is_the_extension_toughness_of_a_shorter_crack():
+    # K_IC given directly (A_ref derived from it), half the crack length of the test above
+    # (0.25 m, h/a = 0.08): LEFM predicts p_ext = K_IC / sqrt(pi a) = 0.2257 MPa; measured
+    # 0.2259 MPa (+0.1 %): the tip criterion is a toughness, p_ext ~ a^(-1/2). Tolerance
+    # 5 % as above. (~5 s)
+    k_ic = 0.2e6
+    sc = StrengthScaling(True, toughness=k_ic)
+    assert crack_tip_toughness(RockProperties(tensile_strength=1e6, scaling=sc)) == \
+        pytest.approx(k_ic, rel=1e-12)
+    p = _extension_pressure(0.02, sc, half_length=0.25)
+    assert p * math.sqrt(math.pi * 0.25) == pytest.approx(k_ic, rel=0.05)
 
 
 def _runaway(n_wall, scaling=None, stress=(35e6, 30e6, 20e6, None), T=5e6, S0=15e6):
@@ -194,18 +217,30 @@ def test_breakdown_runaway_wall_resolution_hubbert_willis_case():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "open: with sigma_H + p0 > 2 sigma_h + T breakdown is propagation controlled, but the "
-    "cluster-scale tip criterion is dominated by the effective confinement sigma_h - p0, "
-    "which the size factor does not scale (docs/mechanics.md)"))
 def test_propagation_controlled_breakdown_is_mesh_insensitive_with_crack_tip_scaling():
-    # sH = 45, sh = 30, p0 = 20, T = 3 MPa: initiation ~28-30 MPa < sh, the crack arrests in
-    # the hoop-tension zone and breakdown is the pressure at which it runs away. Measured
-    # (~90 s): unscaled 37.56 / 36.95 MPa (32 / 96 wall segments), crack-tip scaling
-    # 36.24 / 35.03 MPa: the difference grows instead of halving.
+    # sH = 45, sh = 30, p0 = 20, T = 3 MPa: initiation (28 MPa Hubbert-Willis; 30.36 /
+    # 28.24 MPa on 32 / 96 wall segments, the O(h) wall-stress error) is below sh; the
+    # crack arrests in the hoop-tension zone and breakdown is the pressure at which it runs
+    # away. Without scaling the tip clusters need an opening stress p - p0 + T, whose
+    # confinement part does not shrink with h, so the graded meshes hold the crack until
+    # 37.56 / 36.95 MPa (difference 0.61 MPa). The crack-tip criterion compares only the
+    # singular part (stress minus crack pressure) with the scaled strength, i.e. K_I with
+    # K_IC = 1.11 T A_ref^(1/4) = 0.33 MPa sqrt(m): measured 30.36 / 30.47 MPa (difference
+    # 0.11 MPa), just above sh as LEFM predicts for a toughness this small (a crack
+    # fed at p > sh runs once K_I = (p - sh) sqrt(pi (L + a)) > K_IC). On 32 segments
+    # breakdown is the (overestimated) initiation. (~2-4 min: four breakdown searches.)
     stress = (45e6, 30e6, 20e6, 25e6)
     kw = dict(stress=stress, T=3e6, S0=20e6)
     off = [_runaway(n, **kw) for n in (32, 96)]
     tip = [_runaway(n, StrengthScaling(True, 1e-4), **kw) for n in (32, 96)]
-    assert all(b.converged for b in off + tip)
-    assert abs(tip[0].pressure - tip[1].pressure) < 0.5 * abs(off[0].pressure - off[1].pressure)
+    for b in off + tip:
+        assert b.converged, b.reason
+        assert b.runaway_length > 4 * 0.15
+        assert _off_axis_deg(b.azimuth) < 10.0
+    d_off = abs(off[0].pressure - off[1].pressure)
+    d_tip = abs(tip[0].pressure - tip[1].pressure)
+    assert d_tip < 0.5 * d_off
+    # toughness-controlled: breakdown at most ~0.5 MPa above sigma_h (measured +0.36 /
+    # +0.47 MPa) and never below it (a crack fed at p < sigma_h arrests)
+    for b in tip:
+        assert 30e6 <= b.pressure < 31e6

@@ -112,6 +112,7 @@ boundaries.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import re
 import time as _time
@@ -148,6 +149,7 @@ from xlotkit.sim.well import (
 )
 
 __all__ = [
+    "LumpedEngine",
     "LumpedResult",
     "LumpedScene",
     "breakdown_pressure",
@@ -160,6 +162,7 @@ __all__ = [
     "simulate_lumped",
     "stable_length",
     "standard_lumped_scene",
+    "StepOutcome",
     "stress_intensity",
     "wall_leak_index",
 ]
@@ -593,6 +596,9 @@ class _Ctx:
 
 
 class _Sim:
+    HIST_KEYS = ("t", "p", "pf", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps",
+                 "q_in", "q_ret")
+
     def __init__(self, scene: LumpedScene):
         self.sc = scene
         self.cw = scene.c_well
@@ -620,9 +626,7 @@ class _Sim:
         self._cn = 0
         self._cache: dict[tuple[float, int], float] = {}
         # History of accepted states.
-        self.hist: dict[str, list[float]] = {k: [] for k in (
-            "t", "p", "pf", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps", "q_in",
-            "q_ret")}
+        self.hist: dict[str, list[float]] = {k: [] for k in self.HIST_KEYS}
         self.mb_err: list[float] = []
         self.mb_t: list[float] = []
         self.n_steps = 0
@@ -933,11 +937,16 @@ def simulate_lumped(scene: LumpedScene, *,
                     progress: Callable[[float], None] | None = None) -> LumpedResult:
     """Run the lumped XLOT model (equations in the module docstring).
 
+    A thin wrapper around :class:`LumpedEngine`: start it, step it to the end, return its
+    result. :func:`xlotkit.sim.run.simulate` drives the same engine with checkpoints and
+    file output.
+
     Parameters
     ----------
     scene : LumpedScene
     progress : callable, optional
-        Called with the fraction of the program done (0..1); nothing is printed or logged.
+        Called with the fraction of the program done (0..1, non-decreasing, last call 1.0);
+        nothing is printed or logged.
 
     Returns
     -------
@@ -965,42 +974,311 @@ def simulate_lumped(scene: LumpedScene, *,
         error of the total balance at the end), counters ``n_steps``, ``n_rejected``,
         ``n_events`` and ``wall_time``.
     """
-    wall0 = _time.perf_counter()
-    sim = _Sim(scene)
-    sc = scene
-    dt_out = float(sc.dt)
-    p_init = sc.p_initial
-    ctx0 = _Ctx(ShutIn(duration=1.0))
-    ps0 = sim.surface(p_init, ctx0)[0]
-    s = _State(t=0.0, p=p_init, ps=ps0, pf=p_init)
-    sim.push(s)
-    plan = sc.schedule.expanded()
-    n_ph = len(plan)
-    phases_out: list[dict[str, Any]] = []
-    events: list[Event] = []
-    closure_times: list[float] = []
-    reopening_times: list[float] = []
-    reopening_ps: list[float] = []
-    last_pump_p: dict[int, float] = {}
-    breakdown_time: float | None = None
-    initiation_time: float | None = None
-    initiation_p: float | None = None
-    fbp: float | None = None
-    isip: dict[int, float] = {}
-    status: Literal["ok", "stopped"] = "ok"
-    messages: list[str] = []
+    engine = LumpedEngine(scene)
+    engine.start()
+    last = -1.0
 
     def report(frac: float) -> None:
+        nonlocal last
         if progress is not None:
-            progress(min(max(frac, 0.0), 1.0))
+            progress(frac)
+        last = frac
 
-    for i_ph, (cyc, ph) in enumerate(plan):
-        report(i_ph / n_ph)
-        t0 = s.t
-        v_in0, v_ret0 = s.v_in, s.v_ret
+    report(engine.progress())
+    while not engine.is_done():
+        engine.step()
+        f = engine.progress()
+        if f - last >= 1e-3 and f < 1.0:
+            report(f)
+    report(1.0)
+    return engine.result()
+
+
+#: The scalar fields of the solver state saved in a checkpoint.
+_STATE_FIELDS = tuple(f.name for f in dataclasses.fields(_State))
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What one call of an engine's ``step()`` did.
+
+    Attributes
+    ----------
+    ok : bool
+        True when the step advanced the simulation (an accepted step, a phase change);
+        False when it was rejected and will be retried shorter (nothing advanced).
+    t : float
+        Simulated time after the call [s].
+    reason : str
+        Why the step was rejected, or what it did (``"accepted"``, ``"phase end: volume"``).
+    """
+
+    ok: bool
+    t: float
+    reason: str
+
+
+class LumpedEngine:
+    """The lumped model as a stepwise engine (the :class:`xlotkit.sim.run.Engine` protocol).
+
+    ``start()``, then ``step()`` until ``is_done()``, then ``result()``. One step is one
+    pass of the adaptive loop: an accepted time step (with its events), a rejected trial
+    (the step is halved), or the start/end of a schedule phase. ``state()`` captures
+    everything the remaining steps depend on as NumPy arrays and scalars, so
+    ``restore(state)`` followed by the remaining steps gives bit-identical results.
+
+    Parameters
+    ----------
+    scene : LumpedScene
+    """
+
+    model = "lumped"
+
+    def __init__(self, scene: LumpedScene) -> None:
+        if not isinstance(scene, LumpedScene):
+            raise InputError(f"not a LumpedScene: {scene!r}", key="scene",
+                             expected="a xlotkit.sim.lumped.LumpedScene")
+        self.sc = scene
+        self._plan = scene.schedule.expanded()
+        self._started = False
+
+    # ------------------------------------------------------------------ protocol
+    def start(self) -> None:
+        """Set up the state at t = 0 (the well at its initial pressure, no fracture)."""
+        sc = self.sc
+        self._wall0 = _time.perf_counter()
+        self._wall_before = 0.0
+        self.sim = sim = _Sim(sc)
+        self._p_init = sc.p_initial
+        ps0 = sim.surface(self._p_init, _Ctx(ShutIn(duration=1.0)))[0]
+        self.s = _State(t=0.0, p=self._p_init, ps=ps0, pf=self._p_init)
+        sim.push(self.s)
+        self._i_ph = 0
+        self._in_phase = False
+        self.phases_out: list[dict[str, Any]] = []
+        self.events: list[Event] = []
+        self.closure_times: list[float] = []
+        self.reopening_times: list[float] = []
+        self.reopening_ps: list[float] = []
+        self.last_pump_p: dict[int, float] = {}
+        self.isip: dict[int, float] = {}
+        self.breakdown_time: float | None = None
+        self.initiation_time: float | None = None
+        self.initiation_p: float | None = None
+        self.fbp: float | None = None
+        self.status: Literal["ok", "stopped"] = "ok"
+        self.messages: list[str] = []
+        # phase context (set by _begin_phase)
+        self._t0 = self._v_in0 = self._v_ret0 = 0.0
+        self._reason = ""
+        self._dt_adapt = float(sc.dt)
+        self._n_loop = 0
+        self._ctx = _Ctx(ShutIn(duration=1.0))
+        self._started = True
+
+    def is_done(self) -> bool:
+        """True once every phase of the schedule has ended."""
+        return self._started and self._i_ph >= len(self._plan)
+
+    def progress(self) -> float:
+        """Fraction of the program done, 0..1 (non-decreasing over the run)."""
+        n_ph = len(self._plan)
+        if not self._started:
+            return 0.0
+        if self._i_ph >= n_ph:
+            return 1.0
+        if not self._in_phase:
+            return self._i_ph / n_ph
+        max_d = self._plan[self._i_ph][1].max_duration
+        tot = 0.0 if max_d is None else (self.s.t - self._t0) / max(self._limit, 1e-12)
+        return (self._i_ph + min(tot, 1.0)) / n_ph
+
+    @property
+    def time(self) -> float:
+        """Simulated time [s]."""
+        return self.s.t
+
+    def step(self) -> StepOutcome:
+        """Advance by one pass of the adaptive loop (see the class docstring)."""
+        if not self._started:
+            raise RuntimeError("LumpedEngine.step() before start()")
+        if self.is_done():
+            return StepOutcome(False, self.s.t, "done")
+        if not self._in_phase:
+            self._begin_phase()
+            if self._reason:
+                self._end_phase()
+                return StepOutcome(True, self.s.t, "phase end at start: " + self._reason)
+            return StepOutcome(True, self.s.t, "phase start")
+        accepted = self._iterate()
+        if not accepted:
+            return StepOutcome(False, self.s.t, "rejected: pressure change above dp_max")
+        if self._reason:
+            reason = self._reason
+            self._end_phase()
+            return StepOutcome(True, self.s.t, "phase end: " + reason)
+        return StepOutcome(True, self.s.t, "accepted")
+
+    def rows(self) -> dict[str, np.ndarray]:
+        """The time series so far, one row per accepted internal state (SI).
+
+        Columns (names of :data:`xlotkit.sim.output.SERIES_COLUMNS`): ``t``,
+        ``bottomhole_pressure``, ``fracture_pressure``, ``surface_pressure``,
+        ``pump_rate``, ``return_rate``, ``pumped_volume``, ``returned_volume``,
+        ``leakoff_volume``, ``fracture_length``, ``fracture_volume`` and
+        ``mass_balance_error`` (relative residual of the step that ended at the row; NaN
+        on the initial row).
+        """
+        h = {k: np.asarray(v, dtype=float) for k, v in self.sim.hist.items()}
+        mb = np.concatenate([[math.nan], np.asarray(self.sim.mb_err, dtype=float)])
+        return {
+            "t": h["t"], "bottomhole_pressure": h["p"], "fracture_pressure": h["pf"],
+            "surface_pressure": h["ps"], "pump_rate": h["q_in"], "return_rate": h["q_ret"],
+            "pumped_volume": h["v_in"], "returned_volume": h["v_ret"],
+            "leakoff_volume": h["v_carter"] + h["v_wall"], "fracture_length": h["L"],
+            "fracture_volume": h["vf"], "mass_balance_error": mb,
+        }
+
+    def state(self) -> dict[str, Any]:
+        """Everything the remaining steps depend on: NumPy arrays and scalars.
+
+        Floats are stored exactly (arrays of float64, or in the ``"json"`` entry written
+        with ``repr`` precision), so :meth:`restore` resumes bit-identically.
+        """
+        if not self._started:
+            raise RuntimeError("LumpedEngine.state() before start()")
+        sim = self.sim
+        out: dict[str, Any] = {f"hist.{k}": np.asarray(v, dtype=float)
+                               for k, v in sim.hist.items()}
+        out["mb_err"] = np.asarray(sim.mb_err, dtype=float)
+        out["mb_t"] = np.asarray(sim.mb_t, dtype=float)
+        out["carter_a"] = sim._ca.copy()
+        out["carter_b"] = sim._cb.copy()
+        out["carter_dA"] = sim._cdA.copy()
+        scal = {
+            "state": {k: getattr(self.s, k) for k in _STATE_FIELDS},
+            "carter_n": sim._cn, "n_steps": sim.n_steps, "n_rejected": sim.n_rejected,
+            "n_events": sim.n_events,
+            "i_ph": self._i_ph, "in_phase": self._in_phase, "t0": self._t0,
+            "v_in0": self._v_in0, "v_ret0": self._v_ret0, "reason": self._reason,
+            "dt_adapt": self._dt_adapt, "n_loop": self._n_loop,
+            "ctx": {"q_pump": self._ctx.q_pump, "zeta": self._ctx.zeta,
+                    "q_bleed": self._ctx.q_bleed},
+            "phases_out": self.phases_out,
+            "events": [[e.t, e.text] for e in self.events],
+            "closure_times": self.closure_times, "reopening_times": self.reopening_times,
+            "reopening_ps": self.reopening_ps,
+            "last_pump_p": [[k, v] for k, v in self.last_pump_p.items()],
+            "isip": [[k, v] for k, v in self.isip.items()],
+            "breakdown_time": self.breakdown_time, "initiation_time": self.initiation_time,
+            "initiation_p": self.initiation_p, "fbp": self.fbp, "status": self.status,
+            "messages": self.messages,
+            "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
+        }
+        out["json"] = json.dumps(scal)
+        out["model"] = self.model
+        return out
+
+    def restore(self, state: Mapping[str, Any]) -> None:
+        """Continue from a :meth:`state` dict (instead of :meth:`start`)."""
+        try:
+            scal = json.loads(str(_scalar(state["json"])))
+            hist = {k: np.asarray(state[f"hist.{k}"], dtype=float).tolist()
+                    for k in _Sim.HIST_KEYS}
+            arrays = {k: np.asarray(state[k], dtype=float) for k in (
+                "mb_err", "mb_t", "carter_a", "carter_b", "carter_dA")}
+        except (KeyError, ValueError, TypeError) as exc:
+            raise InputError(f"not a lumped-engine checkpoint ({exc})", key="checkpoint",
+                             expected="a checkpoint written by LumpedEngine.state()") from None
+        self.start()
+        sim = self.sim
+        sim.hist = hist
+        sim.mb_err = arrays["mb_err"].tolist()
+        sim.mb_t = arrays["mb_t"].tolist()
+        sim._ca, sim._cb, sim._cdA = arrays["carter_a"], arrays["carter_b"], arrays["carter_dA"]
+        sim._cn = int(scal["carter_n"])
+        sim.n_steps, sim.n_rejected = int(scal["n_steps"]), int(scal["n_rejected"])
+        sim.n_events = int(scal["n_events"])
+        self.s = _State(**scal["state"])
+        self._i_ph, self._in_phase = int(scal["i_ph"]), bool(scal["in_phase"])
+        self._t0, self._v_in0, self._v_ret0 = scal["t0"], scal["v_in0"], scal["v_ret0"]
+        self._reason, self._dt_adapt = scal["reason"], scal["dt_adapt"]
+        self._n_loop = int(scal["n_loop"])
+        self.phases_out = scal["phases_out"]
+        self.events = [Event(t=t, text=x) for t, x in scal["events"]]
+        self.closure_times = scal["closure_times"]
+        self.reopening_times = scal["reopening_times"]
+        self.reopening_ps = scal["reopening_ps"]
+        self.last_pump_p = {int(k): v for k, v in scal["last_pump_p"]}
+        self.isip = {int(k): v for k, v in scal["isip"]}
+        self.breakdown_time = scal["breakdown_time"]
+        self.initiation_time = scal["initiation_time"]
+        self.initiation_p = scal["initiation_p"]
+        self.fbp = scal["fbp"]
+        self.status, self.messages = scal["status"], scal["messages"]
+        self._wall_before = float(scal["wall_time"])
+        if self._in_phase:
+            c = scal["ctx"]
+            self._setup_phase_context()
+            self._ctx.q_pump, self._ctx.zeta, self._ctx.q_bleed = (
+                c["q_pump"], c["zeta"], c["q_bleed"])
+
+    def snapshot(self) -> None:
+        """The lumped model has no mesh: no field snapshots."""
+        return None
+
+    # ------------------------------------------------------------------ phases
+    def _setup_phase_context(self) -> None:
+        """Phase-dependent objects that follow from ``_i_ph``, ``_t0``, ``_v_in0``, ``_v_ret0``."""
+        sc = self.sc
+        cyc, ph = self._plan[self._i_ph]
         if isinstance(ph, Pump):
-            ctx = _Ctx(ph, q_pump=ph.rate_at(0.0))
-        elif isinstance(ph, Flowback):
+            self._ctx = _Ctx(ph, q_pump=ph.rate_at(0.0))
+        elif isinstance(ph, Bleed):
+            self._ctx = _Ctx(ph, q_bleed=float(ph.rate))
+        else:
+            self._ctx = _Ctx(ph)
+        max_d = ph.max_duration
+        self._max_d = max_d
+        self._limit = sc.max_phase_duration if max_d is None else min(
+            max_d, sc.max_phase_duration)
+        self._t_end = self._t0 + self._limit
+        self._rate_breaks = ([self._t0 + b for b in ph.breakpoints()]
+                             if isinstance(ph, Pump) else [])
+        self._ends = self._end_fns(ph, self._v_in0, self._v_ret0)
+
+    @staticmethod
+    def _end_fns(ph, v_in0: float, v_ret0: float) -> dict[str, Callable[[_State, float], float]]:
+        fns: dict[str, Callable[[_State, float], float]] = {}
+        pa = ph.pressure_at
+
+        def px(st, ps):
+            return st.p if pa == "bottomhole" else ps
+
+        if ph.pressure_above is not None:
+            thr = float(ph.pressure_above)
+            fns["pressure_above"] = lambda st, ps: thr - px(st, ps)
+        if ph.pressure_below is not None:
+            thr2 = float(ph.pressure_below)
+            fns["pressure_below"] = lambda st, ps: px(st, ps) - thr2
+        vt = ph.volume_target
+        if vt is not None:
+            if isinstance(ph, Pump):
+                fns["volume"] = lambda st, ps: (v_in0 + vt) - st.v_in
+            else:
+                fns["volume"] = lambda st, ps: (v_ret0 + vt) - st.v_ret
+        if isinstance(ph, Bleed):
+            fns["well_dead"] = lambda st, ps: ps
+        return fns
+
+    def _begin_phase(self) -> None:
+        sc, sim, s = self.sc, self.sim, self.s
+        i_ph = self._i_ph
+        cyc, ph = self._plan[i_ph]
+        self._t0 = s.t
+        self._v_in0, self._v_ret0 = s.v_in, s.v_ret
+        self._setup_phase_context()
+        if isinstance(ph, Flowback):
             if ph.zeta is not None:
                 zeta = float(ph.zeta)
             else:
@@ -1013,194 +1291,201 @@ def simulate_lumped(scene: LumpedScene, *,
                         f"{ps_static / 1e6:.3f} MPa; cannot calibrate the choke from "
                         f"initial_rate", key=f"schedule.phases[{i_ph % len(sc.schedule.phases)}]"
                         ".initial_rate", expected="flowback from a pressured well") from None
-            ctx = _Ctx(ph, zeta=zeta)
-        elif isinstance(ph, Bleed):
-            ctx = _Ctx(ph, q_bleed=float(ph.rate))
-        else:
-            ctx = _Ctx(ph)
+            self._ctx.zeta = zeta
+        ctx = self._ctx
         # The state's return rate belongs to the previous phase; restate it for this one
         # so the trapezoidal choke flux starts from the right value.
         s.ps, s.q_ret = sim.surface(s.p, ctx)
-        events.append(Event(t=t0, text=f"cycle {cyc}: {ph.label}"))
-        max_d = ph.max_duration
-        limit = sc.max_phase_duration if max_d is None else min(max_d, sc.max_phase_duration)
-        t_end = t0 + limit
-        rate_breaks = [t0 + b for b in ph.breakpoints()] if isinstance(ph, Pump) else []
-
-        def end_fns():
-            fns: dict[str, Callable[[_State, float], float]] = {}
-            pa = ph.pressure_at
-            def px(st, ps):  # noqa: E306
-                return st.p if pa == "bottomhole" else ps
-            if ph.pressure_above is not None:
-                thr = float(ph.pressure_above)
-                fns["pressure_above"] = lambda st, ps: thr - px(st, ps)
-            if ph.pressure_below is not None:
-                thr2 = float(ph.pressure_below)
-                fns["pressure_below"] = lambda st, ps: px(st, ps) - thr2
-            vt = ph.volume_target
-            if vt is not None:
-                if isinstance(ph, Pump):
-                    fns["volume"] = lambda st, ps: (v_in0 + vt) - st.v_in
-                else:
-                    fns["volume"] = lambda st, ps: (v_ret0 + vt) - st.v_ret
-            if isinstance(ph, Bleed):
-                fns["well_dead"] = lambda st, ps: ps
-            return fns
-
-        ends = end_fns()
+        self.events.append(Event(t=self._t0, text=f"cycle {cyc}: {ph.label}"))
         reason = ""
         # Already satisfied at the start?
-        for name, fn in ends.items():
+        for name, fn in self._ends.items():
             if fn(s, s.ps) <= 0.0:
                 reason = name
                 break
-        dt_adapt = dt_out
-        n_loop = 0
-        while not reason:
-            n_loop += 1
-            if isinstance(ph, Pump):
-                ctx.q_pump = ph.rate_at(s.t - t0)
-            k_next = math.floor(s.t / dt_out + 1e-9) + 1
-            if k_next * dt_out - s.t < 1e-6 * dt_out:
-                k_next += 1     # no round-off-sized steps after an event near a sample
-            t_break = min([k_next * dt_out, t_end] + [b for b in rate_breaks if b > s.t + 1e-12])
-            dt = min(dt_adapt, t_break - s.t)
-            if dt <= 0.0:
-                dt = t_break - s.t
-            st = sim.solve(s, dt, ctx)
-            if (not st.jump and max(abs(st.p - s.p), abs(st.pf - s.pf)) > sc.dp_max
-                    and dt > 1e-3):
-                dt_adapt = 0.5 * dt
-                sim.n_rejected += 1
-                continue
-            # ---- events in this step: armed at the start, fired at the end
-            armed: dict[str, Callable[[_State, float], float]] = {}
-            for name, fn in ends.items():
-                armed[name] = fn
-            if not s.broken:
-                armed["breakdown"] = lambda x, ps: sim.pb - x.p
-            elif s.sealed:
-                # closed and held shut at the wall: reopens when the WELL reaches P_r
-                if s.p < sim.pr - sim.tol_p:
-                    armed["reopening_wall"] = lambda x, ps: sim.pr - x.p
-            else:
-                if s.L < sim.L_stab:
-                    armed["unstable"] = lambda x, ps: x.margin
-                # closure and reopening at sigma_h are on the FRACTURE pressure
-                if s.pf > sim.sh + sim.tol_p:
-                    armed["closure"] = lambda x, ps: x.pf - sim.sh
-                elif s.pf < sim.sh - sim.tol_p:
-                    armed["reopening"] = lambda x, ps: sim.sh - x.pf
-            fired = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
-            hit: list[str] = []
-            if fired:
-                best_dt = dt
-                for name in fired:
-                    dt_e = _locate(lambda d, fn=armed[name]: _g(sim, s, ctx, fn, d), dt)
-                    best_dt = min(best_dt, dt_e)
-                if best_dt < dt:
-                    st = sim.solve(s, best_dt, ctx)
-                hit = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
-                sim.n_events += len(hit)
-            if st.jump and fbp is None:   # an unstable jump not caught as an event
-                fbp, breakdown_time = s.p, s.t
-            s = sim.accept(s, st, ctx)
-            dt_adapt = min(dt_out, 2.0 * dt_adapt)
-            for name in hit:
-                if name == "closure":
-                    # With the entry loss and reopening at sigma_h, a well a few Pa above
-                    # sigma_h can refill a just-closed fracture for an instant; count one
-                    # closure until a reopening has been recorded.
-                    if len(closure_times) <= len(reopening_times):
-                        closure_times.append(s.t)
-                    if sim.seal:
-                        # The faces are in contact; the mouth now needs P_r to reopen.
-                        s.sealed = True
-                        s.pf = s.p
-                elif name == "reopening":
-                    reopening_times.append(s.t)
-                    reopening_ps.append(s.p)
-                elif name == "reopening_wall":
-                    # The wall lets go: the fracture, at its old size, meets net pressure
-                    # P_r - sigma_h. A zero-length step redistributes the well's volume
-                    # into it (at fixed L, or growing if K_I > K_Ic) -- the same
-                    # volume-conserving jump as at breakdown.
-                    reopening_times.append(s.t)
-                    reopening_ps.append(s.p)
-                    s.sealed = False
-                    s.pf = s.p
-                    s = sim.accept(s, sim.solve(s, 0.0, ctx), ctx)
-                elif name == "breakdown":
-                    # Hubbert-Willis initiation: the flaw becomes a fracture; it jumps at
-                    # once if K_I(P_b, L_0) > K_Ic, else later ("unstable").
-                    initiation_time, initiation_p = s.t, s.p
-                    s.broken = True
-                    s.L = sc.initial_flaw
-                    st0 = sim.solve(s, 0.0, ctx)
-                    if st0.jump and fbp is None:
-                        fbp, breakdown_time = s.p, s.t
-                    s = sim.accept(s, st0, ctx)
-                elif name == "unstable":
-                    if fbp is None:
-                        fbp, breakdown_time = s.p, s.t
-                    s = sim.accept(s, sim.solve(s, 0.0, ctx, force_jump=True), ctx)
-                elif not reason:
-                    reason = name
-            if not reason and s.t >= t_end - 1e-9:
-                reason = "duration" if (max_d is not None and limit == max_d) else "limit"
-            if n_loop % 200 == 0:
-                tot = 0.0 if max_d is None else (s.t - t0) / max(limit, 1e-12)
-                report((i_ph + min(tot, 1.0)) / n_ph)
+        self._reason = reason
+        self._dt_adapt = float(sc.dt)
+        self._n_loop = 0
+        self._in_phase = True
+
+    def _end_phase(self) -> None:
+        sc, s = self.sc, self.s
+        i_ph, reason = self._i_ph, self._reason
+        cyc, ph = self._plan[i_ph]
+        n_ph = len(self._plan)
         if reason == "limit":
-            status = "stopped"
-            messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit max_phase_duration "
-                            f"{sc.max_phase_duration:g} s before its end condition")
-        if isinstance(ph, Pump) and i_ph + 1 < n_ph and not isinstance(plan[i_ph + 1][1], Pump):
+            self.status = "stopped"
+            self.messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit "
+                                 f"max_phase_duration {sc.max_phase_duration:g} s before its "
+                                 f"end condition")
+        if isinstance(ph, Pump) and i_ph + 1 < n_ph and not isinstance(
+                self._plan[i_ph + 1][1], Pump):
             # ISIP: the well pressure once the entry loss has gone, i.e. the fracture
             # pressure at shut-in (= the well pressure without entry loss or fracture).
-            isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
-            last_pump_p[cyc] = s.p
-        phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label, "t_start": t0,
-                           "t_end": s.t, "end": reason})
-    report(1.0)
+            self.isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
+            self.last_pump_p[cyc] = s.p
+        self.phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label,
+                                "t_start": self._t0, "t_end": s.t, "end": reason})
+        self._i_ph += 1
+        self._in_phase = False
+        self._reason = ""
 
-    hist = {k: np.asarray(v, dtype=float) for k, v in sim.hist.items()}
-    record = _make_record(sc, sim, hist, events)
-    v_leak = hist["v_carter"] + hist["v_wall"]
-    resid_cum = (hist["v_in"] - hist["v_ret"] - sim.cw * (hist["p"] - p_init) - hist["vf"]
-                 - v_leak)
-    denom = max(float(np.max(hist["v_in"] + hist["v_ret"])), 1e-300)
-    mb = np.asarray(sim.mb_err)
-    if status == "ok":
-        msg = (f"{sc.schedule.n_cycles} cycle(s), {sim.n_steps} steps, "
-               f"max step mass-balance error {mb.max() if mb.size else 0.0:.2e}")
-    else:
-        msg = "; ".join(messages)
-    truth: dict[str, Any] = {
-        "sigma_h": sc.sigma_h, "sigma_H": sc.sigma_H, "pore_pressure": sc.pore_pressure,
-        "tensile_strength": sc.tensile_strength,
-        "breakdown_pressure_model": sc.breakdown_pressure,
-        "fbp": fbp, "breakdown_time": breakdown_time,
-        "initiation_pressure": initiation_p, "initiation_time": initiation_time,
-        "reopening_pressure_model": sim.pr, "reopening_model": sc.reopening,
-        "closure_times": closure_times, "reopening_times": reopening_times,
-        "reopening_pressures": reopening_ps,
-        "isip": isip, "last_pump_pressure": last_pump_p,
-        "nwb_coefficient": sc.nwb_coefficient, "phases": phases_out,
-        "well_compliance": sim.cw, "stable_length": sim.L_stab,
-        "initial_pressure": p_init,
-        "t": hist["t"], "pressure": hist["p"], "fracture_pressure": hist["pf"],
-        "surface_pressure": hist["ps"],
-        "fracture_length": hist["L"], "fracture_volume": hist["vf"],
-        "pumped_volume": hist["v_in"], "returned_volume": hist["v_ret"],
-        "leakoff_volume": v_leak,
-        "mass_balance_error": mb, "mass_balance_t": np.asarray(sim.mb_t),
-        "mass_balance_cumulative": resid_cum / denom,
-        "n_steps": sim.n_steps, "n_rejected": sim.n_rejected, "n_events": sim.n_events,
-        "wall_time": _time.perf_counter() - wall0,
-    }
-    return LumpedResult(status=status, message=msg, record=record, truth=truth)
+    # ------------------------------------------------------------------ one loop pass
+    def _iterate(self) -> bool:
+        """One pass of the adaptive loop; False if the trial step was rejected."""
+        sc, sim, ctx = self.sc, self.sim, self._ctx
+        s = self.s
+        ph = ctx.phase
+        t0, t_end = self._t0, self._t_end
+        dt_out = float(sc.dt)
+        self._n_loop += 1
+        if isinstance(ph, Pump):
+            ctx.q_pump = ph.rate_at(s.t - t0)
+        k_next = math.floor(s.t / dt_out + 1e-9) + 1
+        if k_next * dt_out - s.t < 1e-6 * dt_out:
+            k_next += 1     # no round-off-sized steps after an event near a sample
+        t_break = min([k_next * dt_out, t_end]
+                      + [b for b in self._rate_breaks if b > s.t + 1e-12])
+        dt = min(self._dt_adapt, t_break - s.t)
+        if dt <= 0.0:
+            dt = t_break - s.t
+        st = sim.solve(s, dt, ctx)
+        if (not st.jump and max(abs(st.p - s.p), abs(st.pf - s.pf)) > sc.dp_max
+                and dt > 1e-3):
+            self._dt_adapt = 0.5 * dt
+            sim.n_rejected += 1
+            return False
+        # ---- events in this step: armed at the start, fired at the end
+        armed: dict[str, Callable[[_State, float], float]] = {}
+        for name, fn in self._ends.items():
+            armed[name] = fn
+        if not s.broken:
+            armed["breakdown"] = lambda x, ps: sim.pb - x.p
+        elif s.sealed:
+            # closed and held shut at the wall: reopens when the WELL reaches P_r
+            if s.p < sim.pr - sim.tol_p:
+                armed["reopening_wall"] = lambda x, ps: sim.pr - x.p
+        else:
+            if s.L < sim.L_stab:
+                armed["unstable"] = lambda x, ps: x.margin
+            # closure and reopening at sigma_h are on the FRACTURE pressure
+            if s.pf > sim.sh + sim.tol_p:
+                armed["closure"] = lambda x, ps: x.pf - sim.sh
+            elif s.pf < sim.sh - sim.tol_p:
+                armed["reopening"] = lambda x, ps: sim.sh - x.pf
+        fired = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
+        hit: list[str] = []
+        if fired:
+            best_dt = dt
+            for name in fired:
+                dt_e = _locate(lambda d, fn=armed[name]: _g(sim, s, ctx, fn, d), dt)
+                best_dt = min(best_dt, dt_e)
+            if best_dt < dt:
+                st = sim.solve(s, best_dt, ctx)
+            hit = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
+            sim.n_events += len(hit)
+        if st.jump and self.fbp is None:   # an unstable jump not caught as an event
+            self.fbp, self.breakdown_time = s.p, s.t
+        s = sim.accept(s, st, ctx)
+        self._dt_adapt = min(dt_out, 2.0 * self._dt_adapt)
+        reason = self._reason
+        for name in hit:
+            if name == "closure":
+                # With the entry loss and reopening at sigma_h, a well a few Pa above
+                # sigma_h can refill a just-closed fracture for an instant; count one
+                # closure until a reopening has been recorded.
+                if len(self.closure_times) <= len(self.reopening_times):
+                    self.closure_times.append(s.t)
+                if sim.seal:
+                    # The faces are in contact; the mouth now needs P_r to reopen.
+                    s.sealed = True
+                    s.pf = s.p
+            elif name == "reopening":
+                self.reopening_times.append(s.t)
+                self.reopening_ps.append(s.p)
+            elif name == "reopening_wall":
+                # The wall lets go: the fracture, at its old size, meets net pressure
+                # P_r - sigma_h. A zero-length step redistributes the well's volume
+                # into it (at fixed L, or growing if K_I > K_Ic) -- the same
+                # volume-conserving jump as at breakdown.
+                self.reopening_times.append(s.t)
+                self.reopening_ps.append(s.p)
+                s.sealed = False
+                s.pf = s.p
+                s = sim.accept(s, sim.solve(s, 0.0, ctx), ctx)
+            elif name == "breakdown":
+                # Hubbert-Willis initiation: the flaw becomes a fracture; it jumps at
+                # once if K_I(P_b, L_0) > K_Ic, else later ("unstable").
+                self.initiation_time, self.initiation_p = s.t, s.p
+                s.broken = True
+                s.L = sc.initial_flaw
+                st0 = sim.solve(s, 0.0, ctx)
+                if st0.jump and self.fbp is None:
+                    self.fbp, self.breakdown_time = s.p, s.t
+                s = sim.accept(s, st0, ctx)
+            elif name == "unstable":
+                if self.fbp is None:
+                    self.fbp, self.breakdown_time = s.p, s.t
+                s = sim.accept(s, sim.solve(s, 0.0, ctx, force_jump=True), ctx)
+            elif not reason:
+                reason = name
+        if not reason and s.t >= t_end - 1e-9:
+            max_d = self._max_d
+            reason = "duration" if (max_d is not None and self._limit == max_d) else "limit"
+        self.s = s
+        self._reason = reason
+        return True
+
+    # ------------------------------------------------------------------ result
+    def result(self) -> LumpedResult:
+        """The outcome once :meth:`is_done` (record on the output grid, truth)."""
+        if not self.is_done():
+            raise RuntimeError("LumpedEngine.result() before the run is done")
+        sc, sim = self.sc, self.sim
+        p_init = self._p_init
+        status = self.status
+        hist = {k: np.asarray(v, dtype=float) for k, v in sim.hist.items()}
+        record = _make_record(sc, sim, hist, self.events)
+        v_leak = hist["v_carter"] + hist["v_wall"]
+        resid_cum = (hist["v_in"] - hist["v_ret"] - sim.cw * (hist["p"] - p_init)
+                     - hist["vf"] - v_leak)
+        denom = max(float(np.max(hist["v_in"] + hist["v_ret"])), 1e-300)
+        mb = np.asarray(sim.mb_err)
+        if status == "ok":
+            msg = (f"{sc.schedule.n_cycles} cycle(s), {sim.n_steps} steps, "
+                   f"max step mass-balance error {mb.max() if mb.size else 0.0:.2e}")
+        else:
+            msg = "; ".join(self.messages)
+        truth: dict[str, Any] = {
+            "sigma_h": sc.sigma_h, "sigma_H": sc.sigma_H, "pore_pressure": sc.pore_pressure,
+            "tensile_strength": sc.tensile_strength,
+            "breakdown_pressure_model": sc.breakdown_pressure,
+            "fbp": self.fbp, "breakdown_time": self.breakdown_time,
+            "initiation_pressure": self.initiation_p, "initiation_time": self.initiation_time,
+            "reopening_pressure_model": sim.pr, "reopening_model": sc.reopening,
+            "closure_times": list(self.closure_times),
+            "reopening_times": list(self.reopening_times),
+            "reopening_pressures": list(self.reopening_ps),
+            "isip": dict(self.isip), "last_pump_pressure": dict(self.last_pump_p),
+            "nwb_coefficient": sc.nwb_coefficient, "phases": list(self.phases_out),
+            "well_compliance": sim.cw, "stable_length": sim.L_stab,
+            "initial_pressure": p_init,
+            "t": hist["t"], "pressure": hist["p"], "fracture_pressure": hist["pf"],
+            "surface_pressure": hist["ps"],
+            "fracture_length": hist["L"], "fracture_volume": hist["vf"],
+            "pumped_volume": hist["v_in"], "returned_volume": hist["v_ret"],
+            "leakoff_volume": v_leak,
+            "mass_balance_error": mb, "mass_balance_t": np.asarray(sim.mb_t),
+            "mass_balance_cumulative": resid_cum / denom,
+            "n_steps": sim.n_steps, "n_rejected": sim.n_rejected, "n_events": sim.n_events,
+            "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
+        }
+        return LumpedResult(status=status, message=msg, record=record, truth=truth)
+
+
+def _scalar(v: Any) -> Any:
+    """A Python scalar from a 0-d array or a scalar."""
+    return v.item() if isinstance(v, np.ndarray) else v
 
 
 def _view(s: _State, st: _Step) -> _State:

@@ -14,6 +14,9 @@ Replaces TOUGH2 of the thesis (SPEC §4, §5). Submodules:
 
 from xlotkit.sim.flow.fracture import (
     cluster_length_scale,
+    crack_opening,
+    crack_permeability,
+    crack_permeability_derivative,
     cubic_law_permeability,
     fracture_porosity,
     hydraulic_aperture,
@@ -59,6 +62,9 @@ __all__ = [
     "WellCondition",
     "arithmetic_transmissibility",
     "cluster_length_scale",
+    "crack_opening",
+    "crack_permeability",
+    "crack_permeability_derivative",
     "cubic_law_permeability",
     "density",
     "edge_geometry",

@@ -42,6 +42,9 @@ from xlotkit.errors import InputError
 
 __all__ = [
     "cluster_length_scale",
+    "crack_opening",
+    "crack_permeability",
+    "crack_permeability_derivative",
     "cubic_law_permeability",
     "fracture_porosity",
     "hydraulic_aperture",
@@ -170,3 +173,64 @@ def fracture_porosity(fracture_volume, bulk_volume):
     if np.any(vb <= 0):
         raise InputError("must be > 0", key="bulk_volume")
     return np.maximum(np.asarray(fracture_volume, dtype=float), 0.0) / vb
+
+
+def crack_opening(contact_gaps):
+    """Normal opening of each failed cluster's crack from its contact gaps.
+
+    A crack crossing a triangle separates one node from the other two; the two contacts
+    (sub-edges) it crosses open by ``w |n . e_m|`` (``n`` the crack normal, ``e_m`` the
+    contact direction), the third not at all. The cluster's opening is taken as the largest
+    contact gap: exact when a crossed edge is normal to the crack, and otherwise a lower
+    bound by the factor ``max_m |n . e_m|`` (>= 0.5 for two crossed edges at <= 120
+    degrees). It is piecewise linear in the displacements (one active contact), so its
+    derivative is that contact's normal-displacement operator.
+
+    Parameters
+    ----------
+    contact_gaps : array_like, shape (m, 3)
+        Opening of each contact [m] (>= 0; 0 when closed or bonded).
+
+    Returns
+    -------
+    opening : ndarray, shape (m,)
+        ``w_n = max_m gap_m`` [m].
+    active : ndarray of int, shape (m,)
+        Index (0..2) of the contact that gives it.
+    """
+    g = np.asarray(contact_gaps, dtype=float)
+    if g.ndim != 2 or g.shape[1] != 3:
+        raise InputError("contact gaps must have shape (m, 3)", key="contact_gaps")
+    active = np.argmax(g, axis=1)
+    return np.maximum(g[np.arange(len(g)), active], 0.0), active
+
+
+def crack_permeability(hydraulic_aperture_, matrix_permeability, length_scale):
+    """Up-scaled permeability of a cracked cell ``k = k_m + w_h^3 / (12 Delta)`` [m^2].
+
+    The same as :func:`upscaled_permeability` (``PM k_m``, Eq. 4.3) written so that an
+    impermeable matrix (``k_m = 0``) is allowed: the crack alone conducts.
+
+    Parameters
+    ----------
+    hydraulic_aperture_ : array_like, shape (m,)
+        ``w_h`` [m].
+    matrix_permeability : float or array_like, shape (m,)
+        ``k_m >= 0`` [m^2].
+    length_scale : float or array_like, shape (m,)
+        ``Delta > 0`` [m].
+    """
+    w = np.asarray(hydraulic_aperture_, dtype=float)
+    km = np.asarray(matrix_permeability, dtype=float)
+    d = np.asarray(length_scale, dtype=float)
+    if np.any(km < 0):
+        raise InputError("must be >= 0", key="matrix_permeability", expected=">= 0")
+    if np.any(d <= 0):
+        raise InputError("must be > 0", key="length_scale", expected="> 0")
+    return km + w * w * w / (12.0 * d)
+
+
+def crack_permeability_derivative(hydraulic_aperture_, length_scale):
+    """``dk/dw_h = w_h^2 / (4 Delta)`` [m] of :func:`crack_permeability`."""
+    w = np.asarray(hydraulic_aperture_, dtype=float)
+    return w * w / (4.0 * np.asarray(length_scale, dtype=float))

@@ -112,16 +112,22 @@ class FlowState:
         Pore volume added to each cell by the skeleton [m^3] (crack volume ``phi_f V_b``,
         poroelastic volume change); zeros for rigid rock. The hydro-mechanical step sets
         it from the displacements; its time change is the ``dV_pore(u)/dt`` term.
+    well_extra_volume : float
+        Volume added to the well [m^3] (the hole's enlargement by the wall displacement,
+        ``h f_wall . (u - u_0)``, set by the hydro-mechanical step); 0 for a rigid hole.
+        The well mass is ``M_w(p_w) + rho(p_w) * well_extra_volume``.
     """
 
     t: float
     p: np.ndarray
     p_w: float
     extra_pore_volume: np.ndarray
+    well_extra_volume: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "t", float(self.t))
         object.__setattr__(self, "p_w", float(self.p_w))
+        object.__setattr__(self, "well_extra_volume", float(self.well_extra_volume))
         object.__setattr__(self, "p", _ro(self.p))
         object.__setattr__(self, "extra_pore_volume", _ro(self.extra_pore_volume))
         if self.p.ndim != 1 or self.extra_pore_volume.shape != self.p.shape:
@@ -135,7 +141,8 @@ class FlowState:
 
     def with_x(self, x: np.ndarray, t: float | None = None) -> "FlowState":
         """Copy with the unknowns replaced by ``x`` (shape (m + 1,)) and optionally ``t``."""
-        return FlowState(self.t if t is None else t, x[:-1], x[-1], self.extra_pore_volume)
+        return FlowState(self.t if t is None else t, x[:-1], x[-1], self.extra_pore_volume,
+                         self.well_extra_volume)
 
 
 @dataclass(frozen=True, eq=False)
@@ -164,6 +171,9 @@ class FlowResidual:
     throughput : float
         Scale of the step's mass rates for relative tolerances [kg/s]:
         ``|injection| + sum |F_well| + sum |F_fixed| + sum_i |storage_i| + |storage_w|``.
+    d_residual_d_well_volume : float
+        ``dR_w/dV^x_w = rho(p_w)/dt`` [kg/(s m^3)] (rate-driven well; 0 when the well row
+        is a pressure equation), the chain-rule factor for the hole's volume change.
     """
 
     residual: np.ndarray
@@ -175,6 +185,7 @@ class FlowResidual:
     storage_rate_cells: np.ndarray
     storage_rate_well: float
     throughput: float
+    d_residual_d_well_volume: float = 0.0
 
     @property
     def mass_rate_imbalance(self) -> float:
@@ -589,7 +600,8 @@ class FlowModel:
     # ---------------------------------------------------------------- residual
     def residual_and_jacobian(self, state: FlowState, state_old: FlowState, dt: float, *,
                               permeability=None, well_rate=None,
-                              well_pressure: float | None = None) -> FlowResidual:
+                              well_pressure: float | None = None,
+                              well_storage: float | None = None) -> FlowResidual:
         """Backward-Euler residual ``R(p, p_w)`` and its analytic sparse Jacobian.
 
         Parameters
@@ -608,6 +620,9 @@ class FlowModel:
             (choke flowback). Default ``well.rate`` at ``t_n + dt/2``.
         well_pressure : float, optional
             Override of the prescribed well pressure (pressure-controlled wells).
+        well_storage : float, optional
+            Override of the well compliance ``C_w`` [m^3/Pa] (e.g. the segment's own plus
+            the whole well's, set by the hydro-mechanical step).
 
         Returns
         -------
@@ -635,12 +650,16 @@ class FlowModel:
         dstore = (V * (cf * rho * phi + rho * phi_ref * cr) + cf * rho * vx) / dt
 
         pw, pwo = state.p_w, state_old.p_w
-        Cw = self.well_storage
+        Cw = self.well_storage if well_storage is None else float(well_storage)
         rho_wo = float(f.rho(pwo))
         dpw = pw - pwo
-        store_w = Cw * rho_wo * dpw * float(expm1_over_x(cf * dpw)) / dt
+        drho_w = rho_wo * cf * dpw * float(expm1_over_x(cf * dpw))
+        vw, vwo = state.well_extra_volume, state_old.well_extra_volume
+        # compliance storage plus the extra (hole-enlargement) volume, difference form
+        store_w = (Cw * rho_wo * dpw * float(expm1_over_x(cf * dpw))
+                   + drho_w * vw + rho_wo * (vw - vwo)) / dt
         rho_w = float(f.rho(pw))
-        dstore_w = Cw * rho_w / dt
+        dstore_w = (Cw * rho_w + cf * rho_w * vw) / dt
 
         # -- two-point fluxes between unknowns (interior + well connections)
         c = self._conn
@@ -729,6 +748,7 @@ class FlowModel:
             injection_rate=float(injection), formation_rate=formation_rate,
             boundary_rate=boundary_rate, storage_rate_cells=store,
             storage_rate_well=float(store_w),
+            d_residual_d_well_volume=(rho_w / dt if keep_well_row else 0.0),
             throughput=float(abs(injection) + np.sum(np.abs(F[c.is_well]))
                              + np.sum(np.abs(Fd)) + np.sum(np.abs(store)) + abs(store_w)),
         )

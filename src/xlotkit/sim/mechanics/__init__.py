@@ -13,6 +13,7 @@ from xlotkit.sim.mechanics.config import (
     SolverOptions,
     StrengthScaling,
 )
+from xlotkit.sim.mechanics.failure import TIP_TOUGHNESS_FACTOR, crack_tip_toughness
 from xlotkit.sim.mechanics.breakdown import (
     PressureBreakdown,
     breakdown_pressure,
@@ -45,6 +46,7 @@ __all__ = [
     "PRESET",
     "SLIP",
     "STICK",
+    "TIP_TOUGHNESS_FACTOR",
     "BoundaryConditions",
     "BreakdownResult",
     "InSituStress",
@@ -58,5 +60,6 @@ __all__ = [
     "StrengthScaling",
     "breakdown_pressure",
     "crack_geometry",
+    "crack_tip_toughness",
     "wall_pressure_at_first_failure",
 ]

@@ -32,13 +32,18 @@ from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.solver import (
     FAILED_SHEAR,
     FAILED_TENSILE,
+    INTACT,
     PRESET,
     MechanicsModel,
+    MechanicsResult,
     MechanicsState,
     wall_pressure_at_first_failure,
 )
 
 __all__ = ["PressureBreakdown", "crack_geometry", "breakdown_pressure"]
+
+# halvings of a pressure increment tried when no equilibrium is found (see settle)
+_MAX_SUBSTEP_DEPTH = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -217,11 +222,19 @@ def breakdown_pressure(
 
     Notes
     -----
-    A step that finds no equilibrium is reported as a failure (``converged=False``), except
-    when at that same pressure the crack has already grown to at least twice its length at
-    the start of the pressure and beyond ``4 a``: growth at constant pressure followed by
-    loss of a quasi-static equilibrium is the instability, and counts as runaway
-    (``runaway_length`` then is the length reached, below ``run_length``).
+    A step that finds no equilibrium is first retried by approaching its pressure from the
+    last settled state in halves (up to three halvings; the crack only grows with
+    pressure, so a settled intermediate state is a valid start, and a crack that runs away
+    at the intermediate pressure runs away at the higher one too): a long pressurised crack
+    can take the active-set solver out of its convergence range in one jump of ``dp``
+    (e.g. 96 wall segments, sigma_H = 45, sigma_h = 30, p0 = 20 MPa: no equilibrium at
+    36.99 MPa from the 1.13 m crack of 36.74 MPa; with the halvings the search converges,
+    breakdown 36.95 MPa). If that fails too it is reported as a failure (``converged=False``),
+    except when at that same pressure the crack (including the clusters failed in the
+    unconverged step, which were decided on an equilibrium) has grown to at least twice
+    its length at the start of the pressure and beyond ``4 a``: growth at constant
+    pressure followed by loss of a quasi-static equilibrium is the instability, and counts
+    as runaway (``runaway_length`` then is the length reached, below ``run_length``).
     """
     if state is None:
         state = model.initial_state()
@@ -243,8 +256,30 @@ def breakdown_pressure(
     base_p = np.array(state.pore_pressure, dtype=float)
     counters = {"it": 0, "solves": 0, "lost": 0}
 
-    def settle(st: MechanicsState, p: float):
+    def settle(st: MechanicsState, p: float, depth: int = 0):
         """Settle at wall pressure p: (state, ran, ok, why, length, azimuth)."""
+        res = _settle(st, p)
+        if not res[2]:
+            # no equilibrium with the step's own failure rounds: their new clusters keep
+            # the rock's pore pressure until the next fill, and a node enclosed by failed
+            # clusters with open contacts and unequal pressures has no equilibrium (a
+            # mechanism of the cascade, not of the crack). Retry filling every round.
+            res = _settle(st, p, filled_rounds=True)
+        if res[2] or depth >= _MAX_SUBSTEP_DEPTH:
+            return res
+        # no equilibrium from st: approach p in two halves. The crack only grows with
+        # pressure, so the settled state at the midpoint is a valid start for p, and a
+        # crack that runs away at the midpoint runs away at p too.
+        mid = 0.5 * (float(st.wall_pressure) + p)
+        half = settle(st, mid, depth + 1)
+        if not half[2] or half[1]:
+            return half if half[1] else res
+        return settle(half[0], p, depth + 1)
+
+    def _settle(st: MechanicsState, p: float, filled_rounds: bool = False):
+        """One settle attempt. ``filled_rounds``: equilibrate without failure, fail the
+        overstressed clusters (:meth:`MechanicsModel.failure_margins`), fill, repeat, so
+        no failed cluster of the crack is ever without the crack fluid in a solve."""
         length, az = 0.0, math.nan
         start_length = crack_geometry(model, st.cluster_state)[1]
         for _ in range(max_fill):
@@ -252,16 +287,22 @@ def breakdown_pressure(
             if length >= run_length:
                 return st, True, True, "ran", length, az
             pores = np.where(conn, p, base_p)
-            r = model.step(st, wall_pressure=p, pore_pressure=pores, check_failure=True)
+            r = model.step(st, wall_pressure=p, pore_pressure=pores,
+                           check_failure=not filled_rounds)
             counters["it"] += r.iterations
             counters["solves"] += 1
+            if filled_rounds and r.converged:
+                r = _fail_overstressed(r)
             if not r.converged:
-                if length >= max(4.0 * a, 2.0 * start_length):
+                # the failures of the step's last round were decided on an equilibrium,
+                # so the crack of the unconverged state is one the rock did grow
+                _, reached, reached_az = crack_geometry(model, r.state.cluster_state)
+                if reached >= max(4.0 * a, 2.0 * start_length):
                     # the crack has at least doubled, beyond 4 hole radii, at this constant
                     # pressure and no quasi-static equilibrium of its next extension is
                     # found: that is the instability itself, counted as runaway
                     counters["lost"] += 1
-                    return st, True, True, "ran (equilibrium lost)", length, az
+                    return r.state, True, True, "ran (equilibrium lost)", reached, reached_az
                 return (st, False, False, f"equilibrium at p_w = {p:g} Pa: {r.reason}",
                         length, az)
             st = r.state
@@ -276,6 +317,22 @@ def breakdown_pressure(
                 return st, False, True, "stable", length, az
         return (st, False, False, f"no stable state after {max_fill} fill cycles",
                 length, az)
+
+    def _fail_overstressed(r: MechanicsResult) -> MechanicsResult:
+        """Fail the clusters overstressed in r.state (tensile before shear, as in
+        :meth:`MechanicsModel.step`); ``new_failures`` lists them."""
+        st = r.state
+        mt, ms = model.failure_margins(st)
+        intact = np.asarray(st.cluster_state) == INTACT
+        tens = np.nonzero(intact & (mt >= 0.0))[0]
+        shear = np.nonzero(intact & (mt < 0.0) & (ms >= 0.0))[0]
+        if tens.size:
+            st = model.fail_clusters(st, tens, FAILED_TENSILE)
+        if shear.size:
+            st = model.fail_clusters(st, shear, FAILED_SHEAR)
+        return MechanicsResult(state=st, converged=True, reason=r.reason,
+                               iterations=r.iterations, failure_rounds=r.failure_rounds,
+                               new_failures=np.concatenate([tens, shear]))
 
     def result(pressure, ok, why, p_i, p_lo, st_lo, len_lo, az, run_len, st_hi, hist):
         return PressureBreakdown(

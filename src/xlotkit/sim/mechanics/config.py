@@ -77,16 +77,30 @@ class StrengthScaling:
         keep the nominal strength, because initiation at a smooth wall is strength
         controlled and has no length scale. ``"all"``: every cluster (the thesis's
         approach; makes initiation mesh dependent, see docs/mechanics.md).
+    toughness : float or None
+        Fracture toughness ``K_IC`` [Pa m^0.5] to give the crack-tip clusters instead of a
+        reference area. If set, the reference area is derived from it and the rock's
+        tensile strength, ``A_ref = (K_IC / (c T))^4`` with the measured tip factor ``c``
+        of :data:`xlotkit.sim.mechanics.failure.TIP_TOUGHNESS_FACTOR`, and
+        ``reference_area`` is ignored; needs ``exponent = 1/4`` (the only exponent for
+        which the tip criterion is a toughness) and ``T > 0``. See
+        :func:`xlotkit.sim.mechanics.failure.crack_tip_toughness` for the validity range.
     """
 
     enabled: bool = False
     reference_area: float = 1e-4
     exponent: float = 0.25
     mode: Literal["crack_tip", "all"] = "crack_tip"
+    toughness: float | None = None
 
     def __post_init__(self) -> None:
         _range(self, "reference_area", "strength_scaling", 0.0, None, lo_open=True)
         _range(self, "exponent", "strength_scaling", 0.0, 1.0)
+        if self.toughness is not None:
+            _range(self, "toughness", "strength_scaling", 0.0, None, lo_open=True)
+            if self.exponent != 0.25:
+                raise InputError("a toughness needs the LEFM exponent 1/4",
+                                 key="strength_scaling.exponent", expected="0.25")
         if self.mode not in ("crack_tip", "all"):
             raise InputError(f"unknown scaling mode {self.mode!r}", key="strength_scaling.mode",
                              expected="'crack_tip' or 'all'")
@@ -147,6 +161,10 @@ class RockProperties:
             raise InputError(f"must be an integer, got {self.seed!r}", key="rock.seed")
         if not isinstance(self.scaling, StrengthScaling):
             raise InputError("must be a StrengthScaling", key="rock.scaling")
+        if self.scaling.toughness is not None and self.tensile_strength == 0.0:
+            # A_ref = (K_IC / (c T))^4 has no finite value for T = 0
+            raise InputError("a toughness needs a positive tensile strength",
+                             key="rock.tensile_strength", expected="> 0")
 
     @property
     def friction_angle(self) -> float:

@@ -12,12 +12,27 @@ from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.config import RockProperties
 
 __all__ = [
+    "TIP_TOUGHNESS_FACTOR",
+    "crack_tip_margin",
+    "crack_tip_toughness",
     "mohr_coulomb_margin",
     "principal_stresses",
+    "reference_area",
     "strength_fields",
     "strength_scale_factor",
     "tensile_margin",
 ]
+
+
+#: ``K_IC / (T A_ref^(1/4))`` of the crack-tip criterion (:func:`crack_tip_margin` with
+#: exponent 1/4): ``p_ext sqrt(pi a) / (T A_ref^(1/4))`` at which a pre-cut, pressurised
+#: Griffith crack extends, measured on band meshes with tip clusters of h = 0.04 and
+#: 0.02 m and half-lengths a = 0.5 and 0.25 m (h/a <= 0.08): 1.105, 1.125, 1.111, mean
+#: 1.11, spread +-1 %. (At h/a = 0.16 it was 1.45: the crack must span >~ 12 clusters.)
+#: It is a property of the discrete tip (how the constant-strain triangle next to the tip
+#: averages the ``K / sqrt(2 pi r)`` field), not of the rock; see docs/mechanics.md and
+#: the re-measurement in tests/verification/test_mdem_fracture.py.
+TIP_TOUGHNESS_FACTOR = 1.11
 
 
 def principal_stresses(stress: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -48,6 +63,37 @@ def tensile_margin(stress: np.ndarray, tensile_strength: np.ndarray) -> np.ndarr
     """
     _, s2, _ = principal_stresses(stress)
     return -tensile_strength - s2
+
+
+def crack_tip_margin(stress: np.ndarray, face_pressure: np.ndarray,
+                     tensile_strength: np.ndarray) -> np.ndarray:
+    """Tensile criterion on the singular part of the stress at a crack tip.
+
+    Ahead of a crack whose faces carry the fluid pressure ``p_f`` the total opening
+    stress (compression positive) is ``sigma_nn = p_f - K_I / sqrt(2 pi r) + O(sqrt r)``:
+    the constant term of the Williams expansion equals the face load, whatever the
+    far field or the rock's pore pressure. The crack-induced (singular) part is therefore
+    ``sigma - p_f I``; a tip cluster fails when its least compressive principal value
+    reaches ``-T_i``, with ``T_i`` the size-scaled strength, i.e. at ``K_I = K_IC``
+    (:func:`crack_tip_toughness`).
+
+    Parameters
+    ----------
+    stress : ndarray (..., 3)
+        Cluster-average **total** stress [Pa], compression positive.
+    face_pressure : ndarray (...)
+        Fluid pressure on the crack faces at the tip [Pa].
+    tensile_strength : ndarray (...)
+        Size-scaled tensile strength ``T_i`` [Pa].
+
+    Returns
+    -------
+    ndarray
+        ``-T_i - min principal(sigma - p_f I)`` [Pa]; failure when >= 0.
+    """
+    sing = np.array(stress, dtype=float, copy=True)
+    sing[..., :2] -= np.asarray(face_pressure, dtype=float)[..., None]
+    return tensile_margin(sing, tensile_strength)
 
 
 def mohr_coulomb_margin(stress: np.ndarray, cohesion: np.ndarray,
@@ -87,6 +133,51 @@ def strength_scale_factor(area: np.ndarray, reference_area: float,
     return (reference_area / area) ** exponent
 
 
+def reference_area(rock: RockProperties) -> float:
+    """Reference area ``A_ref`` [m^2] of the size factor.
+
+    ``rock.scaling.reference_area``, or, when ``rock.scaling.toughness`` is given,
+    ``(K_IC / (c T))^4`` with ``c`` = :data:`TIP_TOUGHNESS_FACTOR`, so that the crack-tip
+    clusters have that toughness (inverse of :func:`crack_tip_toughness`).
+    """
+    sc = rock.scaling
+    if sc.toughness is None:
+        return sc.reference_area
+    return (sc.toughness / (TIP_TOUGHNESS_FACTOR * rock.tensile_strength)) ** 4
+
+
+def crack_tip_toughness(rock: RockProperties) -> float | None:
+    """Effective mode-I fracture toughness ``K_IC`` [Pa m^0.5] of crack-tip clusters.
+
+    With size scaling on in mode ``"crack_tip"`` and the LEFM exponent ``m = 1/4`` a tip
+    cluster of area ``A`` fails when the singular part of its average opening stress
+    (:func:`crack_tip_margin`) reaches ``T (A_ref / A)^(1/4)``; it averages the tip field
+    ``K / sqrt(2 pi r)`` over its size ``~ sqrt(A)``, so it fails at
+    ``K = c T A_ref^(1/4)``, independent of its size, with ``c`` =
+    :data:`TIP_TOUGHNESS_FACTOR` (measured; equal to ``rock.scaling.toughness`` when that
+    is given). Heterogeneity multiplies it per cluster like the strengths.
+
+    The criterion assumes the crack faces carry the fluid pressure only; in MDEM a
+    failed cluster carries it on all three contacts, so a crack filled above the rock's
+    pore pressure also swells the failed band along the crack, which adds tension at its
+    end (measured ~0.4 (p_f - p_rock) on a pre-cut crack failed under compression,
+    docs/mechanics.md). The toughness above is measured without that term
+    (``p_rock = 0``, net pressure ~ ``K_IC / sqrt(pi a)``).
+
+    Returns
+    -------
+    float or None
+        None when scaling is off, in mode ``"all"`` or with ``m != 1/4``: then the tip
+        criterion has no mesh-independent toughness (without scaling it grows like
+        ``T sqrt(h)``; mode ``"all"`` keeps the cluster-average criterion, whose
+        confinement term is not scaled).
+    """
+    sc = rock.scaling
+    if not sc.enabled or sc.mode != "crack_tip" or sc.exponent != 0.25:
+        return None
+    return TIP_TOUGHNESS_FACTOR * rock.tensile_strength * reference_area(rock) ** 0.25
+
+
 def strength_fields(rock: RockProperties, area: np.ndarray,
                     scaled: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Per-cluster tensile strength and cohesion [Pa].
@@ -94,7 +185,7 @@ def strength_fields(rock: RockProperties, area: np.ndarray,
     ``T_i = T * f_size,i * (1 + h U_i)``, ``S_i = S0 * f_size,i * (1 + h U_i)`` with
     ``U_i ~ uniform(-1, 1)`` drawn once per cluster from ``rock.seed`` (a weak cluster is
     weak in tension and in shear) and ``f_size = (A_ref / A_i)^m`` from
-    :func:`strength_scale_factor`.
+    :func:`strength_scale_factor` with ``A_ref`` from :func:`reference_area`.
 
     Parameters
     ----------
@@ -116,6 +207,6 @@ def strength_fields(rock: RockProperties, area: np.ndarray,
         rng = np.random.default_rng(rock.seed)
         factor = 1.0 + rock.heterogeneity * rng.uniform(-1.0, 1.0, size=n)
     if scaled and rock.scaling.enabled:
-        factor = factor * strength_scale_factor(area, rock.scaling.reference_area,
+        factor = factor * strength_scale_factor(area, reference_area(rock),
                                                 rock.scaling.exponent)
     return rock.tensile_strength * factor, rock.cohesion * factor

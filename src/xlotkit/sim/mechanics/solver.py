@@ -61,7 +61,14 @@ from xlotkit.sim.mechanics.config import (
     RockProperties,
     SolverOptions,
 )
-from xlotkit.sim.mechanics.failure import mohr_coulomb_margin, strength_fields, tensile_margin
+from xlotkit.sim.mechanics.failure import (
+    crack_tip_margin,
+    crack_tip_toughness,
+    mohr_coulomb_margin,
+    principal_stresses,
+    strength_fields,
+    tensile_margin,
+)
 from xlotkit.sim.mesh import BOTTOM, HOLE, LEFT, Mesh
 
 __all__ = [
@@ -254,6 +261,9 @@ class MechanicsModel:
         self._incidence = sp.csr_matrix(
             (np.ones(3 * nt), (np.repeat(np.arange(nt), 3), tris.reshape(-1))),
             shape=(nt, mesh.n_nodes))
+        # pairs (i, j) of clusters sharing a node (i == j included), for crack tips
+        touch = (self._incidence @ self._incidence.T).tocoo()
+        self._touch_pairs = (touch.row.astype(np.int64), touch.col.astype(np.int64))
         self.tan_phi = math.tan(rock.friction_angle)
         # contact directions used once a cluster is failed (interfaces override some)
         self.c_normal = g.normal.copy()
@@ -406,7 +416,6 @@ class MechanicsModel:
         prev_status = None
         prev_small = False
         flips = np.zeros(ref_n.shape, dtype=np.int64)
-        self._res_history = []  # relative residual per iteration (diagnostics)
         it = 0
         while True:
             Fn, Fs, status, sgn, f_c, Un, Us = self._response(u, cstate, ref_n, ref_s, p)
@@ -415,7 +424,6 @@ class MechanicsModel:
             scale = np.linalg.norm(assemble_vector(np.abs(f_c), self.dofs, self.n_dof)[free])
             scale = max(scale, np.linalg.norm(f_ext[free]), 1e-300)
             res = np.linalg.norm(R)
-            self._res_history.append(res / scale)
             small = res <= self.options.rtol * scale
             # R is evaluated with the exact (non-smooth) contact law, so a small residual is
             # equilibrium; the unchanged-status test only guards against a lucky iterate.
@@ -624,6 +632,61 @@ class MechanicsModel:
         on_crack = np.asarray(self._incidence[cracked].sum(axis=0)).ravel() > 0
         return np.asarray(self._incidence @ on_crack.astype(float)).ravel() > 0
 
+    def crack_tips(self, state: MechanicsState) -> tuple[np.ndarray, np.ndarray]:
+        """Intact clusters ahead of a crack end, and the fluid pressure on that crack.
+
+        A cluster ``i`` touching the crack (:meth:`touches_crack`) is a *tip* cluster when
+        every failed cluster it shares a node with lies in ``i``'s own plane of largest
+        tension: the offset ``x_i - x_c`` between the centroids is closer to the
+        direction of the most compressive principal stress of ``i`` than to the least
+        compressive one (the opening direction). A mode-I crack grows in that plane, so
+        ``i`` is where the crack would extend; a cluster beside the crack faces has a
+        failed neighbour across the crack (offset along its opening direction) and is
+        not a tip.
+
+        Parameters
+        ----------
+        state : MechanicsState
+
+        Returns
+        -------
+        tip : ndarray of bool (n_c,)
+        face_pressure : ndarray (n_c,) [Pa]
+            Mean pressure of the failed clusters touching each tip cluster (the crack
+            fluid pressure at that tip); 0 elsewhere.
+        """
+        cs = np.asarray(state.cluster_state)
+        nc = len(cs)
+        cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
+        tip = np.zeros(nc, dtype=bool)
+        pf = np.zeros(nc)
+        if not cracked.any():
+            return tip, pf
+        i, c = self._touch_pairs
+        keep = (cs[i] == INTACT) & cracked[c]
+        i, c = i[keep], c[keep]
+        d = self.mesh.centroids[i] - self.mesh.centroids[c]
+        # angle of the most compressive principal stress of i = the crack plane direction
+        _, _, ang = principal_stresses(np.asarray(state.effective_stress)[i])
+        along = np.abs(d[:, 0] * np.cos(ang) + d[:, 1] * np.sin(ang))
+        across = np.abs(d[:, 1] * np.cos(ang) - d[:, 0] * np.sin(ang))
+        tip[i] = True
+        tip[i[across >= along]] = False
+        n = np.bincount(i, minlength=nc)
+        p = np.asarray(state.pore_pressure)
+        pf = np.where(tip, np.bincount(i, weights=p[c], minlength=nc) / np.maximum(n, 1), 0.0)
+        return tip, pf
+
+    @property
+    def fracture_toughness(self) -> float | None:
+        """Effective mode-I toughness ``K_IC`` [Pa m^0.5] of the crack-tip criterion, or
+        None when it has none (scaling off, ``mode="all"`` or exponent != 1/4).
+
+        ``TIP_TOUGHNESS_FACTOR * T * A_ref^(1/4)`` (the given ``StrengthScaling.toughness``
+        if set); see :func:`xlotkit.sim.mechanics.failure.crack_tip_toughness`.
+        """
+        return crack_tip_toughness(self.rock)
+
     def strengths(self, cluster_state: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Tensile strength and cohesion [Pa] of every cluster in a given failure state.
 
@@ -643,12 +706,25 @@ class MechanicsModel:
     def failure_margins(self, state: MechanicsState) -> tuple[np.ndarray, np.ndarray]:
         """Tensile and Mohr-Coulomb margins of every cluster [Pa] (>= 0 means failure).
 
-        Evaluated on the cluster-average Terzaghi effective stress with the strengths of
-        :meth:`strengths` for the state's crack; meaningful for intact clusters.
+        The entry point that decides which intact clusters fail. Evaluated on the
+        cluster-average Terzaghi effective stress with the strengths of
+        :meth:`strengths`, except, with scaling mode ``"crack_tip"``, the tensile
+        margin of crack-tip clusters (:meth:`crack_tips`): there only the singular
+        (crack-induced) part of the opening stress, the total stress minus the crack
+        fluid pressure, is compared with the scaled strength
+        (:func:`xlotkit.sim.mechanics.failure.crack_tip_margin`), which makes the tip a
+        toughness criterion, ``K_I >= K_IC`` (:attr:`fracture_toughness`). Meaningful
+        for intact clusters.
         """
         eff = np.asarray(state.effective_stress)
-        T, S0 = self.strengths(state.cluster_state)
-        return (tensile_margin(eff, T), mohr_coulomb_margin(eff, S0, self.rock.friction_angle))
+        cs = np.asarray(state.cluster_state)
+        T, S0 = self.strengths(cs)
+        mt = tensile_margin(eff, T)
+        if self._tip_scaling:
+            tip, pf = self.crack_tips(state)
+            if tip.any():
+                mt[tip] = crack_tip_margin(np.asarray(state.stress)[tip], pf[tip], T[tip])
+        return mt, mohr_coulomb_margin(eff, S0, self.rock.friction_angle)
 
     def step(
         self,

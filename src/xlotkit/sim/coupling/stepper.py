@@ -1,0 +1,616 @@
+"""Implicit monolithic steps with cluster failure, adaptive time stepping and runs.
+
+One :meth:`CoupledStepper.step` solves the (u, p, p_w) system by a semi-smooth Newton
+(the contact statuses open/stick/slip of failed clusters are re-evaluated at every iterate,
+with a backtracking line search and a stick-stiffness tangent for chattering contacts when
+Newton struggles), then checks every intact cluster with
+:meth:`MechanicsModel.failure_margins`; overstressed clusters fail (most overstressed first,
+at most ``failures_per_round`` per round) and the *same* step is solved again, until no
+cluster is overstressed. The mass balance of the converged step is checked. A step that
+fails (Newton, too many new failures, too large a well-pressure change, mass balance) leaves
+the state unchanged and says why; :meth:`CoupledStepper.run` adapts the step (thesis 4.5.2:
+cut when more than ``N2`` clusters fail in a step, grow when fewer than ``N1`` fail, plus
+Newton-iteration and pressure-change rules, a floor and a ceiling).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from xlotkit.errors import InputError
+from xlotkit.sim.coupling.model import CoupledModel, CoupledResidual, CoupledState, Structure
+from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT
+
+__all__ = [
+    "CoupledControl",
+    "CoupledCounters",
+    "CoupledRunResult",
+    "CoupledStepper",
+    "StepResult",
+    "TimeStepControl",
+]
+
+
+@dataclass(frozen=True)
+class CoupledControl:
+    """Newton and failure settings of one coupled step.
+
+    Attributes
+    ----------
+    max_newton : int
+        Newton iterations per solve (one solve per failure round).
+    force_rtol : float
+        ``max |R_u| <= force_rtol * force_scale``.
+    mass_rtol : float
+        ``sum |R_f| <= mass_rtol * mass_scale`` (mass rates).
+    stagnation_rtol : float
+        Mass residual accepted when Newton stagnates at round-off.
+    mass_balance_tol : float
+        A converged step whose relative mass-balance error exceeds this is rejected.
+    line_search_after : int
+        Newton iterations after which a backtracking line search on the scaled residual
+        norm is used and chattering contacts get their stick stiffness in the tangent.
+    chatter_flips : int
+        Status changes after which a contact counts as chattering.
+    check_failure : bool
+        Apply the failure criteria after each converged solve.
+    failures_per_round : int
+        Most overstressed clusters failed per round before re-solving.
+    max_failure_rounds : int
+        Failure rounds per step before the step is rejected.
+    lagged_permeability_rtol : float
+        While the mass residual is above this fraction of the mass scale, the Jacobian
+        leaves out the aperture dependence of the crack permeability (Picard on ``k``);
+        below it the full Jacobian is used. ``0`` always lags, ``1`` never (see docs:
+        Newton started from a freshly failed, open but unfilled cluster follows the
+        ``w -> 0`` root of the cubic-law flux otherwise).
+    """
+
+    max_newton: int = 60
+    force_rtol: float = 1e-10
+    mass_rtol: float = 1e-11
+    stagnation_rtol: float = 1e-8
+    mass_balance_tol: float = 1e-8
+    line_search_after: int = 8
+    chatter_flips: int = 3
+    check_failure: bool = True
+    failures_per_round: int = 4
+    max_failure_rounds: int = 200
+    lagged_permeability_rtol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips"):
+            if int(getattr(self, k)) < 1:
+                raise InputError("must be >= 1", key=f"coupling.{k}")
+        if int(self.line_search_after) < 0:
+            raise InputError("must be >= 0", key="coupling.line_search_after")
+        for k in ("force_rtol", "mass_rtol", "stagnation_rtol", "mass_balance_tol"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and 0 < v < 1):
+                raise InputError(f"must be in (0, 1), got {v!r}", key=f"coupling.{k}")
+
+
+@dataclass(frozen=True)
+class TimeStepControl:
+    """Adaptive time stepping of :meth:`CoupledStepper.run`.
+
+    Attributes
+    ----------
+    dt_initial : float
+        First step [s].
+    dt_min, dt_max : float
+        Floor and ceiling [s]. At the floor the failure-count and pressure-change rules are
+        waived (the step is taken with however many failures it needs); a Newton or
+        mass-balance failure at the floor ends the run.
+    growth : float
+        Factor after an easy step (fewer than ``n1`` new failures, at most
+        ``newton_easy`` Newton iterations, well-pressure change below half ``dp_max``).
+    cut : float
+        Factor after a rejected step.
+    n1, n2 : int
+        Thesis 4.5.2: grow only when fewer than ``n1`` clusters failed in the step; reject
+        and cut when more than ``n2`` would fail.
+    newton_easy : int
+        Newton iterations (all rounds of the step) that still count as easy.
+    dp_max : float
+        Largest well-pressure change per step [Pa]; larger steps are rejected.
+    """
+
+    dt_initial: float = 1.0
+    dt_min: float = 1e-4
+    dt_max: float = math.inf
+    growth: float = 1.5
+    cut: float = 0.25
+    n1: int = 2
+    n2: int = 8
+    newton_easy: int = 10
+    dp_max: float = math.inf
+
+    def __post_init__(self) -> None:
+        if not (self.dt_initial > 0 and self.dt_min > 0 and self.dt_max >= self.dt_min):
+            raise InputError("need dt_initial > 0, 0 < dt_min <= dt_max", key="time_step")
+        if not self.growth >= 1.0:
+            raise InputError("must be >= 1", key="time_step.growth")
+        if not 0 < self.cut < 1:
+            raise InputError("must be in (0, 1)", key="time_step.cut")
+        if not (0 <= int(self.n1) <= int(self.n2)):
+            raise InputError("need 0 <= n1 <= n2", key="time_step.n1")
+        if not self.dp_max > 0:
+            raise InputError("must be > 0", key="time_step.dp_max")
+
+
+@dataclass
+class CoupledCounters:
+    """Cumulative work counters of a :class:`CoupledStepper`.
+
+    Attributes
+    ----------
+    steps : int
+        Accepted steps.
+    failed_steps : int
+        Rejected (cut) steps.
+    newton_iterations, linear_solves, residual_evaluations : int
+    failure_rounds : int
+        Re-solves after new failures (over accepted and rejected steps).
+    failed_clusters : int
+        Clusters failed in accepted steps.
+    linear_solve_time : float
+        Wall time in the sparse LU factorisations and solves [s].
+    """
+
+    steps: int = 0
+    failed_steps: int = 0
+    newton_iterations: int = 0
+    linear_solves: int = 0
+    residual_evaluations: int = 0
+    failure_rounds: int = 0
+    failed_clusters: int = 0
+    linear_solve_time: float = 0.0
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Outcome of one attempted coupled step.
+
+    Attributes
+    ----------
+    success : bool
+    reason : str
+        ``"converged"``, ``"newton: no convergence"``, ``"newton: singular"``,
+        ``"newton: non-finite"``, ``"too many failures"``, ``"too many failure rounds"``,
+        ``"pressure change"`` or ``"mass balance"``.
+    newton_iterations, linear_solves : int
+        Over all failure rounds of the step.
+    dt : float
+        Step [s] (0 for an undrained step).
+    t : float
+        Time after the step (unchanged on failure).
+    max_dp : float
+        Largest change of a cell or well pressure [Pa].
+    injected_mass, outflow_mass, stored_mass_change : float [kg]
+    mass_balance_error : float
+        ``injected - stored change - outflow`` [kg].
+    relative_mass_balance_error : float
+        ``|error|`` over the step's gross mass scale.
+    force_residual : float
+        ``max |R_u|`` over the force scale at the end.
+    new_failures : int
+        Clusters failed in the step (for a rejected step: the count that made it fail).
+    failure_rounds : int
+        Solves of the step (1 + rounds with new failures).
+    dp_w : float
+        Well-pressure change [Pa].
+    n_failed : int
+        Failed clusters after the step.
+    """
+
+    success: bool
+    reason: str
+    newton_iterations: int
+    linear_solves: int
+    dt: float
+    t: float
+    max_dp: float = float("nan")
+    injected_mass: float = float("nan")
+    outflow_mass: float = float("nan")
+    stored_mass_change: float = float("nan")
+    mass_balance_error: float = float("nan")
+    relative_mass_balance_error: float = float("nan")
+    force_residual: float = float("nan")
+    new_failures: int = 0
+    failure_rounds: int = 0
+    dp_w: float = float("nan")
+    n_failed: int = 0
+
+
+@dataclass(frozen=True)
+class CoupledRunResult:
+    """Outcome of :meth:`CoupledStepper.run`.
+
+    Attributes
+    ----------
+    status : str
+        ``"completed"`` (reached ``t_end``), ``"stopped"`` (the ``stop`` predicate) or
+        ``"failed"``.
+    message : str
+    t : float
+        Time reached [s].
+    steps : list of StepResult
+        Accepted steps of this run.
+    rejected : int
+        Rejected steps of this run.
+    max_relative_mass_balance_error : float
+    min_dt : float
+        Smallest accepted step [s].
+    """
+
+    status: str
+    message: str
+    t: float
+    steps: list = field(default_factory=list)
+    rejected: int = 0
+    max_relative_mass_balance_error: float = 0.0
+    min_dt: float = math.inf
+
+    @property
+    def success(self) -> bool:
+        """True unless the run failed."""
+        return self.status != "failed"
+
+
+def _equilibrated_solve(J: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+    """Solve ``J x = rhs`` with row then column scaling by the largest entries."""
+    A = J.tocsr()
+    r = np.asarray(abs(A).max(axis=1).toarray()).ravel()
+    r = np.where(r > 0, 1.0 / r, 1.0)
+    A = sp.diags(r) @ A
+    c = np.asarray(abs(A).max(axis=0).toarray()).ravel()
+    c = np.where(c > 0, 1.0 / c, 1.0)
+    A = (A @ sp.diags(c)).tocsc()
+    y = spla.splu(A).solve(r * rhs)
+    return c * y
+
+
+class CoupledStepper:
+    """Implicit (backward-Euler) monolithic steps of a :class:`CoupledModel`.
+
+    Parameters
+    ----------
+    model : CoupledModel
+    state : CoupledState, optional
+        Start; default ``model.initial_state()``.
+    control : CoupledControl, optional
+
+    Attributes
+    ----------
+    state : CoupledState
+        Last accepted state.
+    counters : CoupledCounters
+    history : list of StepResult
+        Accepted and failed steps, in order.
+    """
+
+    def __init__(self, model: CoupledModel, state: CoupledState | None = None,
+                 control: CoupledControl | None = None) -> None:
+        self.model = model
+        self.state = model.initial_state() if state is None else state
+        self.control = control or CoupledControl()
+        self.counters = CoupledCounters()
+        self.history: list[StepResult] = []
+        # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
+        self.last_newton_trace: list[tuple[int, float, float]] = []
+
+    # ---------------------------------------------------------------- Newton
+    def _scaled(self, res: CoupledResidual) -> tuple[float, float, float]:
+        nu = self.model.n_u
+        R = res.residual
+        ru = float(np.max(np.abs(R[:nu]), initial=0.0)) / res.force_scale
+        rf = float(np.sum(np.abs(R[nu:])))
+        return ru, rf, float(np.linalg.norm(R[:nu]) / res.force_scale) ** 2 + (
+            rf / max(res.mass_scale, 1e-300)) ** 2
+
+    def _newton(self, x, old, dt, undrained, st):
+        """Semi-smooth Newton on the coupled residual for fixed cluster states."""
+        model, ctl = self.model, self.control
+        its = solves = 0
+        self.last_newton_trace = []
+        prev = math.inf
+        reason = "newton: no convergence"
+        ok = False
+        prev_status = None
+        flips = None
+        soft = None
+        full_k = ctl.lagged_permeability_rtol >= 1.0
+        while True:
+            res = model.residual_and_jacobian(x, old, dt, undrained=undrained, structure=st,
+                                              soft=soft, permeability_derivative=full_k)
+            self.counters.residual_evaluations += 1
+            R = res.residual
+            if not np.all(np.isfinite(R)):
+                reason = "newton: non-finite"
+                break
+            ru, rf, merit = self._scaled(res)
+            self.last_newton_trace.append((its, ru, rf / max(res.mass_scale, 1e-300)))
+            atol = 1e-18 * float(np.sum(model.flow.cell_mass(res.state.flow))) / dt
+            u_ok = ru <= ctl.force_rtol
+            if u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol:
+                ok, reason = True, "converged"
+                break
+            if (its > 0 and u_ok and rf <= ctl.stagnation_rtol * res.mass_scale + atol
+                    and rf > 0.5 * prev):
+                ok, reason = True, "converged"
+                break
+            if its >= ctl.max_newton:
+                break
+            want_full = rf <= ctl.lagged_permeability_rtol * res.mass_scale
+            if want_full != full_k:
+                full_k = want_full
+                res = model.residual_and_jacobian(x, old, dt, undrained=undrained,
+                                                  structure=st, soft=soft,
+                                                  permeability_derivative=full_k)
+            status = res.response[2]
+            if prev_status is not None:
+                flips = flips + (status != prev_status)
+            else:
+                flips = np.zeros(status.shape, dtype=np.int64)
+            prev_status = status
+            prev = rf
+            if its >= ctl.line_search_after:
+                new_soft = flips >= ctl.chatter_flips
+                if new_soft.any() and (soft is None or not np.array_equal(new_soft, soft)):
+                    soft = new_soft
+                    res = model.residual_and_jacobian(x, old, dt, undrained=undrained,
+                                                      structure=st, soft=soft,
+                                                      permeability_derivative=full_k)
+            t0 = time.perf_counter()
+            try:
+                dx = _equilibrated_solve(res.jacobian, -R)
+            except RuntimeError:
+                self.counters.linear_solve_time += time.perf_counter() - t0
+                reason = "newton: singular"
+                break
+            self.counters.linear_solve_time += time.perf_counter() - t0
+            solves += 1
+            if not np.all(np.isfinite(dx)):
+                reason = "newton: non-finite"
+                break
+            step = 1.0
+            if its >= ctl.line_search_after:
+                # backtracking on the scaled residual norm (the full step is tried first:
+                # with the right active set it terminates; at corners of the contact law
+                # the statuses can cycle and the line search restores descent)
+                for _ in range(8):
+                    trial = model.residual_and_jacobian(x + step * dx, old, dt,
+                                                        undrained=undrained, structure=st)
+                    self.counters.residual_evaluations += 1
+                    if np.all(np.isfinite(trial.residual)) and self._scaled(trial)[2] < merit:
+                        break
+                    step *= 0.5
+            x = x + step * dx
+            its += 1
+        self.counters.newton_iterations += its
+        self.counters.linear_solves += solves
+        return ok, reason, x, res, its, solves
+
+    # ---------------------------------------------------------------- failure
+    def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
+              res: CoupledResidual, t_new: float) -> Structure:
+        """Switch clusters ``cand`` to failed at the iterate of ``res`` (forces and pore
+        volume continuous)."""
+        model = self.model
+        mech = model.mechanics
+        u = np.asarray(res.state.displacement)
+        p = np.asarray(res.state.p)
+        ref_n, ref_s = mech._contact_refs(cand, u, p, np.array(st.ref_normal),
+                                          np.array(st.ref_shear))
+        cs = np.array(st.cluster_state)
+        cs[cand] = np.where(tensile[cand], FAILED_TENSILE, FAILED_SHEAR)
+        du = (u.reshape(-1) - model.u0)[mech.dofs[cand]]
+        gdu = np.einsum("ci,ci->c", model._g[cand], du)          # A eps_vol [m^2]
+        voff = np.array(st.volume_offset)
+        voff[cand] += (model.biot - 1.0) * model.height * gdu
+        ft = np.array(st.failure_time)
+        ft[cand] = t_new
+        fv = np.array(st.failure_volume)
+        fv[cand] = np.asarray(res.state.flow.extra_pore_volume)[cand]
+        return Structure(cs, ref_n, ref_s, st.slip, voff, ft, fv)
+
+    # ---------------------------------------------------------------- steps
+    def step(self, dt: float, max_new_failures: int | None = None,
+             max_dp_w: float | None = None) -> StepResult:
+        """Advance by ``dt`` [s] with failure updates (load at the step end, well rate at
+        the midpoint).
+
+        Parameters
+        ----------
+        dt : float
+        max_new_failures : int, optional
+            Reject the step (``"too many failures"``) as soon as more clusters than this
+            would fail in it (thesis ``N2``); None: no limit.
+        max_dp_w : float, optional
+            Reject the step (``"pressure change"``) if the well pressure changes by more
+            [Pa].
+        """
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise InputError(f"time step must be > 0, got {dt!r}", key="dt")
+        return self._solve(float(dt), False, max_new_failures, max_dp_w)
+
+    def step_undrained(self) -> StepResult:
+        """Instantaneous (undrained) response to the load at the current time: no flow
+        anywhere, no failure check, ``t`` unchanged. Use it to apply a load step at
+        ``t = 0``."""
+        return self._solve(1.0, True, None, None)
+
+    def _reject(self, reason, its, solves, dt, old, rounds, new=0, **kw) -> StepResult:
+        self.counters.failed_steps += 1
+        r = StepResult(False, reason, its, solves, dt, old.t, new_failures=new,
+                       failure_rounds=rounds, n_failed=old.n_failed, **kw)
+        self.history.append(r)
+        return r
+
+    def _solve(self, dt: float, undrained: bool, max_new: int | None,
+               max_dp_w: float | None) -> StepResult:
+        model, ctl = self.model, self.control
+        mech = model.mechanics
+        old = self.state
+        st = model.structure_of(old)
+        x = model.x_of(old)
+        t_new = old.t if undrained else old.t + dt
+        step_dt = 0.0 if undrained else dt
+        its = solves = rounds = new_total = 0
+        while True:
+            ok, reason, x, res, i, s = self._newton(x, old, dt, undrained, st)
+            its += i
+            solves += s
+            rounds += 1
+            if not ok:
+                return self._reject(reason, its, solves, step_dt, old, rounds, new_total)
+            if undrained or not ctl.check_failure:
+                break
+            trial = model.finish_state(res, st).mechanics
+            mt, ms = mech.failure_margins(trial)
+            cs = np.asarray(st.cluster_state)
+            intact = cs == INTACT
+            tens = intact & (mt >= 0.0)
+            shear = intact & ~tens & (ms >= 0.0)
+            cand = np.flatnonzero(tens | shear)
+            if cand.size == 0:
+                break
+            if max_new is not None and new_total + cand.size > max_new:
+                return self._reject("too many failures", its, solves, step_dt, old, rounds,
+                                    new_total + int(cand.size))
+            if rounds > ctl.max_failure_rounds:
+                return self._reject("too many failure rounds", its, solves, step_dt, old,
+                                    rounds, new_total + int(cand.size))
+            T_c, S_c = mech.strengths(cs)
+            sev = np.maximum(mt / np.maximum(T_c, 1.0), ms / np.maximum(S_c, 1.0))[cand]
+            cand = cand[np.argsort(-sev, kind="stable")][: int(ctl.failures_per_round)]
+            st = self._fail(st, cand, tens, res, t_new)
+            new_total += int(cand.size)
+            self.counters.failure_rounds += 1
+        fr = res.flow
+        injected = fr.injection_rate * dt
+        stored = (float(np.sum(fr.storage_rate_cells)) + fr.storage_rate_well) * dt
+        out = fr.boundary_rate * dt
+        err = injected - stored - out
+        rel = abs(err) / max(res.mass_scale * dt, 1e-300)
+        new = res.state
+        dpw = new.p_w - old.p_w
+        max_dp = float(np.max(np.abs(np.append(new.p - old.p, dpw))))
+        ru = float(np.max(np.abs(res.residual[:model.n_u]), initial=0.0)) / res.force_scale
+        diag = dict(max_dp=max_dp, injected_mass=injected, outflow_mass=out,
+                    stored_mass_change=stored, mass_balance_error=err,
+                    relative_mass_balance_error=rel, force_residual=ru, dp_w=dpw)
+        if rel > ctl.mass_balance_tol:
+            return self._reject("mass balance", its, solves, step_dt, old, rounds, new_total,
+                                **diag)
+        if max_dp_w is not None and abs(dpw) > max_dp_w:
+            return self._reject("pressure change", its, solves, step_dt, old, rounds,
+                                new_total, **diag)
+        # commit the frictional slip of the converged step
+        ref_s, slip = mech._commit_slip(res.response, np.array(st.ref_shear),
+                                        np.array(st.slip), np.asarray(st.cluster_state))
+        st = replace(st, ref_shear=ref_s, slip=slip)
+        self.state = model.finish_state(res, st)
+        self.counters.steps += 1
+        self.counters.failed_clusters += new_total
+        r = StepResult(True, reason, its, solves, step_dt, t_new, new_failures=new_total,
+                       failure_rounds=rounds, n_failed=self.state.n_failed, **diag)
+        self.history.append(r)
+        return r
+
+    # ---------------------------------------------------------------- runs
+    def run(self, t_end: float, control: TimeStepControl | None = None, *,
+            stop: Callable[[CoupledState], bool] | None = None,
+            callback: Callable[[StepResult, CoupledState], None] | None = None,
+            stop_times=()) -> CoupledRunResult:
+        """Step adaptively to ``t_end`` [s] (or until ``stop(state)`` is true).
+
+        Parameters
+        ----------
+        t_end : float
+        control : TimeStepControl, optional
+        stop : callable ``state -> bool``, optional
+            Checked after every accepted step; True ends the run (``status="stopped"``).
+        callback : callable ``(StepResult, CoupledState) -> None``, optional
+            Called after every accepted step (progress reporting; nothing is printed).
+        stop_times : sequence of float
+            Times the steps must land on exactly (schedule changes).
+
+        Returns
+        -------
+        CoupledRunResult
+        """
+        c = control or TimeStepControl()
+        marks = sorted(float(v) for v in stop_times if self.state.t < v < t_end)
+        h = min(float(c.dt_initial), c.dt_max)
+        acc: list[StepResult] = []
+        rejected = 0
+        max_rel = 0.0
+        min_dt = math.inf
+        while self.state.t < t_end * (1.0 - 1e-14) - 1e-300:
+            t = self.state.t
+            target = next((v for v in marks if v > t * (1 + 1e-14)), t_end)
+            h_try = min(h, target - t)
+            at_floor = h_try <= c.dt_min * (1.0 + 1e-9)
+            # land on the target instead of leaving a sliver
+            if target - t - h_try < c.dt_min:
+                h_try = target - t
+            r = self.step(h_try, max_new_failures=None if at_floor else int(c.n2),
+                          max_dp_w=None if at_floor or math.isinf(c.dp_max) else c.dp_max)
+            if not r.success:
+                rejected += 1
+                if at_floor:
+                    return CoupledRunResult(
+                        "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
+                        f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
+                h = max(h_try * c.cut, c.dt_min)
+                continue
+            acc.append(r)
+            max_rel = max(max_rel, r.relative_mass_balance_error)
+            min_dt = min(min_dt, r.dt)
+            factor = 1.0
+            easy = (r.new_failures < c.n1 and r.newton_iterations <= c.newton_easy
+                    and (math.isinf(c.dp_max) or abs(r.dp_w) <= 0.5 * c.dp_max))
+            if easy:
+                factor = c.growth
+            # a step shortened to land on a mark does not shrink the next one
+            h = min(max(h if h_try < h else h_try * factor, c.dt_min), c.dt_max)
+            if callback is not None:
+                callback(r, self.state)
+            if stop is not None and stop(self.state):
+                return CoupledRunResult("stopped", "stop condition met", self.state.t, acc,
+                                        rejected, max_rel, min_dt)
+        return CoupledRunResult("completed", f"reached t = {self.state.t:g} s", self.state.t,
+                                acc, rejected, max_rel, min_dt)
+
+    def run_to(self, t_end: float, dt: float, growth: float = 1.0,
+               dt_max: float = math.inf, cut: float = 0.25, dt_min: float = 1e-9
+               ) -> list[StepResult]:
+        """Step to exactly ``t_end`` starting with ``dt``, growing by ``growth`` after each
+        accepted step (capped at ``dt_max``), cutting by ``cut`` after a failed one; no
+        failure-count control (see :meth:`run`).
+
+        Returns the accepted steps. Raises RuntimeError below ``dt_min``.
+        """
+        out: list[StepResult] = []
+        h = float(dt)
+        while self.state.t < t_end * (1.0 - 1e-14):
+            h_try = min(h, t_end - self.state.t)
+            r = self.step(h_try)
+            if r.success:
+                out.append(r)
+                h = min(h * growth, dt_max)
+            else:
+                h = h_try * cut
+                if h < dt_min:
+                    raise RuntimeError(f"coupled step failed at t = {self.state.t:g} s: "
+                                       f"{r.reason}")
+        return out

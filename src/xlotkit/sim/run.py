@@ -1,0 +1,448 @@
+"""Run a scene: the stepwise-engine protocol, the engine registry and the driver.
+
+Engine protocol
+---------------
+A simulator is driven one step at a time through :class:`Engine`:
+
+``start()``
+    Set up the state at t = 0. Called once for a fresh run (instead of ``restore``).
+``step() -> outcome``
+    Advance by one step; ``outcome.ok`` (bool) says whether the simulation advanced
+    (False: a rejected trial that will be retried, nothing changed), ``outcome.t`` the
+    simulated time after the call, ``outcome.reason`` a short text (why it was rejected,
+    or what happened). An engine raises :class:`~xlotkit.errors.XlotkitError` for a
+    failure it cannot step past.
+``is_done() -> bool``
+    True once the whole schedule has run (``step`` is then not called again).
+``progress() -> float``
+    Fraction done in [0, 1], non-decreasing over the run.
+``time`` (property) -> float
+    Simulated time [s].
+``state() -> dict[str, ndarray | int | float | bool | str]``
+    Everything the remaining steps depend on, as NumPy arrays and scalars (strings allowed,
+    e.g. JSON for small structured data). Must be exact: ``restore(state())`` followed
+    by the remaining steps gives bit-identical results.
+``restore(state)``
+    Continue from a ``state()`` dict (values may come back as 0-d arrays).
+``rows() -> dict[str, ndarray]``
+    The time series produced so far, one row per accepted step; column names from
+    :data:`xlotkit.sim.output.SERIES_COLUMNS` (``t`` required; columns the engine does not
+    have are left out, never filled with zeros).
+``snapshot() -> Snapshot | None``
+    Fields on the mesh now (:class:`xlotkit.sim.output.Snapshot`), or None for an engine
+    without a mesh.
+``result()``
+    Once done: an object with ``status`` ("ok" or "stopped"), ``message``, ``record`` (the
+    clean :class:`~xlotkit.record.Record` sampled every ``scene.output.log_interval``:
+    bottom-hole ``pressure``, rates, volumes, ``density``, channel ``surface_pressure``)
+    and ``truth`` (a dict; it may carry ``"realised": {"sigma_h": ..., "sigma_H": ...,
+    "tensile_strength": ...}`` when the realised values differ from the imposed ones,
+    e.g. with heterogeneity).
+
+Engines are made by factories ``factory(scene) -> Engine`` registered per model name in
+:data:`ENGINES` (:func:`register_engine`). ``lumped`` is built in
+(:class:`xlotkit.sim.lumped.LumpedEngine`); ``mdem`` is not yet, and asking for it raises
+:class:`EngineNotAvailable`.
+
+Driver
+------
+:func:`simulate` writes into a fresh results folder, checkpoints every
+``numerics.checkpoint_steps`` steps or ``numerics.checkpoint_seconds`` of wall time
+(atomically, ``checkpoint.npz``), and at the end writes ``timeseries.h5``,
+``synthetic_log.csv`` (noise, resolution and sample interval from ``[output]``),
+``summary.json`` and, for engines with a mesh, ``snapshots/*.vtu`` with ``fields.pvd``;
+the checkpoint is then removed. ``simulate(..., resume=True)`` continues an interrupted
+run from its last checkpoint and ends with the same numbers as an uninterrupted run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time as _time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from xlotkit import __version__
+from xlotkit.atomic import atomic_write, atomic_write_text, fresh_sibling_dir
+from xlotkit.errors import InputError, XlotkitError
+from xlotkit.record import Record
+from xlotkit.sim.output import (
+    TRUTH_QUANTITIES,
+    Snapshot,
+    check_rows,
+    synthetic_log,
+    write_pvd,
+    write_snapshot,
+    write_timeseries,
+)
+from xlotkit.sim.scene import Scene
+
+__all__ = [
+    "ENGINES",
+    "Engine",
+    "EngineNotAvailable",
+    "SimulationInterrupted",
+    "SimulationResult",
+    "make_engine",
+    "register_engine",
+    "require_engine",
+    "simulate",
+]
+
+CHECKPOINT = "checkpoint.npz"
+_CHECKPOINT_FORMAT = 1
+
+
+@runtime_checkable
+class Engine(Protocol):
+    """A stepwise simulator (see the module docstring for the contract)."""
+
+    model: str
+
+    def start(self) -> None: ...
+
+    def step(self) -> Any: ...
+
+    def is_done(self) -> bool: ...
+
+    def progress(self) -> float: ...
+
+    @property
+    def time(self) -> float: ...
+
+    def state(self) -> dict[str, Any]: ...
+
+    def restore(self, state: Mapping[str, Any]) -> None: ...
+
+    def rows(self) -> dict[str, np.ndarray]: ...
+
+    def snapshot(self) -> Snapshot | None: ...
+
+    def result(self) -> Any: ...
+
+
+EngineFactory = Callable[[Scene], Engine]
+
+
+class EngineNotAvailable(XlotkitError):
+    """No engine is registered for the model a scene needs."""
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """The run was interrupted (Ctrl-C, or the progress callback raised KeyboardInterrupt).
+
+    Attributes
+    ----------
+    out_dir : Path
+        The run's folder, to pass back with ``resume=True``.
+    has_checkpoint : bool
+        Whether a checkpoint was written before the interruption (else a resume starts
+        over in the same folder).
+    """
+
+    def __init__(self, out_dir: Path, has_checkpoint: bool) -> None:
+        super().__init__(f"simulation in {out_dir} interrupted")
+        self.out_dir = out_dir
+        self.has_checkpoint = has_checkpoint
+
+
+def _lumped_factory(scene: Scene) -> Engine:
+    from xlotkit.sim.lumped import LumpedEngine
+
+    # The engine's record stays clean: the driver puts the gauge noise on the log.
+    return LumpedEngine(scene.to_lumped().replace(noise=0.0, resolution=0.0))
+
+
+#: model name -> engine factory.
+ENGINES: dict[str, EngineFactory] = {"lumped": _lumped_factory}
+
+
+def register_engine(model: str, factory: EngineFactory) -> None:
+    """Register (or replace) the engine factory for ``model`` (``"lumped"``, ``"mdem"``)."""
+    if model not in ("lumped", "mdem"):
+        raise InputError(f"unknown model {model!r}", key="model", expected="lumped or mdem")
+    ENGINES[model] = factory
+
+
+def require_engine(scene: Scene) -> EngineFactory:
+    """The registered factory for the scene's resolved model.
+
+    Raises
+    ------
+    EngineNotAvailable
+        When no engine is registered for it (today: ``mdem``).
+    """
+    model = scene.resolved_model
+    factory = ENGINES.get(model)
+    if factory is None:
+        why = ", ".join(scene.two_d_reasons) or "model = 'mdem'"
+        where = f"{scene.source_file}: " if scene.source_file else ""
+        raise EngineNotAvailable(
+            f"{where}model: the scene needs the 2D MDEM simulator ({why}), which is not "
+            f"available yet (no engine registered for {model!r}); use model = 'lumped' "
+            f"without those keys, or register one with "
+            f"xlotkit.sim.run.register_engine({model!r}, factory)")
+    return factory
+
+
+def make_engine(scene: Scene) -> Engine:
+    """A new engine for the scene's resolved model (see :func:`require_engine`)."""
+    return require_engine(scene)(scene)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """What :func:`simulate` produced.
+
+    Attributes
+    ----------
+    status : {"ok", "stopped"}
+        ``stopped``: a phase hit ``numerics.max_phase_duration``.
+    message : str
+    model : str
+        The model that ran.
+    record : Record
+        The synthetic field log as written (noise and resolution applied).
+    clean_record : Record
+        The engine's record before gauge effects.
+    truth : dict
+        The engine's truth plus ``imposed`` and ``realised`` (sigma_h, sigma_H,
+        tensile_strength, pore_pressure).
+    paths : dict of str to Path
+        ``dir``, ``scene``, ``scene_resolved``, ``timeseries``, ``log``, ``summary`` and,
+        with snapshots, ``pvd``.
+    n_steps : int
+        Engine steps (including rejected trials).
+    resumed : bool
+        Whether the run continued from a checkpoint.
+    wall_time : float
+        Wall-clock seconds of this call.
+    """
+
+    status: str
+    message: str
+    model: str
+    record: Record
+    clean_record: Record
+    truth: dict[str, Any]
+    paths: dict[str, Path]
+    n_steps: int
+    resumed: bool = False
+    wall_time: float = 0.0
+    summary: str = field(default="")
+
+
+def _scene_hash(scene: Scene) -> str:
+    return hashlib.sha256(scene.to_toml().encode("utf-8")).hexdigest()
+
+
+def _fresh_dir(out: Path) -> Path:
+    if not out.exists():
+        out.mkdir(parents=True)
+        return out
+    if out.is_dir() and not any(out.iterdir()):
+        return out
+    return fresh_sibling_dir(out)
+
+
+def _save_checkpoint(path: Path, engine: Engine, driver: dict[str, Any]) -> None:
+    arrays: dict[str, Any] = {}
+    for k, v in engine.state().items():
+        arrays[f"engine:{k}"] = np.asarray(v)
+    arrays["driver"] = np.asarray(json.dumps(driver))
+    arrays["format"] = np.asarray(_CHECKPOINT_FORMAT)
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    atomic_write(path, write)
+
+
+def _load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if int(z["format"]) != _CHECKPOINT_FORMAT:
+                raise InputError("checkpoint format not understood", file=path)
+            driver = json.loads(str(z["driver"]))
+            state = {k[len("engine:"):]: (z[k].item() if z[k].ndim == 0 else z[k])
+                     for k in z.files if k.startswith("engine:")}
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(f"cannot read checkpoint: {exc}", file=path) from None
+    return driver, state
+
+
+def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
+             progress: Callable[[float, str], None] | None = None) -> SimulationResult:
+    """Run a scene to the end, with checkpoints, and write its outputs.
+
+    Parameters
+    ----------
+    scene : Scene
+    out_dir : str or Path
+        Results folder. A fresh run uses it when it does not exist or is empty, else the
+        first free sibling ``DIR-2``, ``DIR-3``, ... (earlier results are never touched).
+        With ``resume`` it must be the folder of the interrupted run.
+    resume : bool
+        Continue from ``out_dir/checkpoint.npz`` (or start over in ``out_dir`` if the run
+        was stopped before its first checkpoint). The scene must be the one of the run.
+    progress : callable, optional
+        ``progress(fraction, message)`` after every step. An exception it raises (e.g.
+        KeyboardInterrupt) stops the run; the last checkpoint stays for a resume.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    EngineNotAvailable
+        When the scene needs a model without an engine (``mdem`` today).
+    InputError
+        For a resume into a folder without a run of this scene.
+    """
+    wall0 = _time.perf_counter()
+    engine = make_engine(scene)
+    out = Path(out_dir)
+    chash = _scene_hash(scene)
+    driver: dict[str, Any] = {"n_steps": 0, "snapshots": [], "next_snapshot": 0.0,
+                              "scene_hash": chash, "model": engine.model}
+    resumed = False
+    if resume:
+        if not out.is_dir():
+            raise InputError("no such results folder to resume", file=out,
+                             expected="the --out folder of an interrupted run")
+        ck = out / CHECKPOINT
+        if ck.exists():
+            saved, state = _load_checkpoint(ck)
+            if saved.get("scene_hash") != chash:
+                raise InputError("the scene differs from the one of the interrupted run",
+                                 file=ck, key="resume",
+                                 expected="the same scene file and --seed as the first run")
+            engine.restore(state)
+            driver = saved
+            resumed = True
+        elif (out / "summary.json").exists():
+            raise InputError("this run has finished; nothing to resume", file=out,
+                             key="resume", expected="the folder of an interrupted run")
+        elif any(p.name not in ("scene.toml", "scene.resolved.toml") for p in out.iterdir()):
+            raise InputError("the folder holds no checkpoint of an interrupted run", file=out,
+                             key="resume", expected="the folder of an interrupted run")
+        target = out
+    else:
+        target = _fresh_dir(out)
+    paths: dict[str, Path] = {"dir": target, "scene": target / "scene.toml",
+                              "scene_resolved": target / "scene.resolved.toml"}
+    if not resumed:
+        atomic_write_text(paths["scene"], scene.text)
+        atomic_write_text(paths["scene_resolved"], scene.to_toml())
+        engine.start()
+    ck_path = target / CHECKPOINT
+    snap_dir = target / "snapshots"
+    snap_every = scene.output.snapshot_interval
+
+    def take_snapshots() -> None:
+        if snap_every is None:
+            return
+        while engine.time >= driver["next_snapshot"] - 1e-9 * snap_every:
+            snap = engine.snapshot()
+            if snap is None:
+                return
+            snap_dir.mkdir(exist_ok=True)
+            k = len(driver["snapshots"])
+            name = f"snapshots/fields_{k:05d}.vtu"
+            write_snapshot(target / name, snap)
+            driver["snapshots"].append([float(snap.time), name])
+            driver["next_snapshot"] += snap_every
+            write_pvd(target / "fields.pvd", driver["snapshots"])
+
+    if not resumed:
+        take_snapshots()
+    num = scene.numerics
+    since, last_ck = 0, _time.perf_counter()
+    try:
+        while not engine.is_done():
+            engine.step()
+            driver["n_steps"] += 1
+            since += 1
+            take_snapshots()
+            now = _time.perf_counter()
+            if since >= num.checkpoint_steps or now - last_ck >= num.checkpoint_seconds:
+                _save_checkpoint(ck_path, engine, driver)
+                since, last_ck = 0, now
+            if progress is not None:
+                progress(engine.progress(), f"t = {engine.time:.0f} s")
+    except KeyboardInterrupt as exc:
+        raise SimulationInterrupted(target, ck_path.exists()) from exc
+    res = engine.result()
+    return _finish(scene, engine, res, driver, target, paths, resumed,
+                   _time.perf_counter() - wall0)
+
+
+def _finish(scene: Scene, engine: Engine, res: Any, driver: dict[str, Any], target: Path,
+            paths: dict[str, Path], resumed: bool, wall: float) -> SimulationResult:
+    from xlotkit.interpret.io import write_log
+
+    st = scene.stresses
+    imposed = {"sigma_h": st.sigma_h, "sigma_H": st.sigma_H,
+               "tensile_strength": scene.rock.tensile_strength,
+               "pore_pressure": st.pore_pressure}
+    realised = dict(imposed)
+    realised.update({k: float(v) for k, v in dict(res.truth.get("realised", {})).items()
+                     if k in TRUTH_QUANTITIES and v is not None})
+    truth_model = {k: v for k, v in res.truth.items() if k not in ("realised", "wall_time")}
+    clean: Record = res.record
+    out = scene.output
+    log = synthetic_log(clean, interval=out.log_interval, noise=out.noise,
+                        resolution=out.resolution, seed=scene.noise_seed)
+    log = log.replace(meta={**log.meta, "source": f"xlotkit simulate ({engine.model})",
+                            "scene": scene.title or (scene.source_file or "")})
+    rows = check_rows(engine.rows())
+    paths["timeseries"] = target / "timeseries.h5"
+    write_timeseries(paths["timeseries"], rows, record=clean, truth=truth_model,
+                     imposed=imposed, realised=realised,
+                     attrs={"model": engine.model, "coupling": scene.coupling,
+                            "seed": int(scene.seed), "noise_seed": int(scene.noise_seed),
+                            "scene": scene.text, "scene_resolved": scene.to_toml(),
+                            "scene_file": scene.source_file or "", "status": res.status,
+                            "message": res.message, "n_steps": int(driver["n_steps"])})
+    paths["log"] = target / "synthetic_log.csv"
+    # after an interruption while finishing, the same run's log may already be there
+    write_log(log, paths["log"], overwrite=resumed)
+    if driver["snapshots"]:
+        paths["pvd"] = target / "fields.pvd"
+    mb = rows.get("mass_balance_error")
+    summary = {
+        "status": res.status, "message": res.message, "model": engine.model,
+        "xlotkit_version": __version__, "seed": int(scene.seed),
+        "steps": int(driver["n_steps"]), "resumed": resumed,
+        "simulated_time_s": float(rows["t"][-1]),
+        "max_mass_balance_error": (None if mb is None or not np.isfinite(mb).any()
+                                   else float(np.nanmax(mb))),
+        "imposed_bar": {k: v / 1e5 for k, v in imposed.items()},
+        "realised_bar": {k: v / 1e5 for k, v in realised.items()},
+        "files": {k: str(p.relative_to(target)) for k, p in paths.items() if k != "dir"},
+    }
+    fbp = res.truth.get("fbp")
+    if fbp is not None:
+        summary["fbp_bar"] = float(fbp) / 1e5
+    paths["summary"] = target / "summary.json"
+    summary["files"]["summary"] = "summary.json"
+    atomic_write_text(paths["summary"], json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    ck = target / CHECKPOINT
+    if ck.exists():
+        ck.unlink()
+    text = (f"{engine.model} model: {res.status}, {res.message}; "
+            f"{len(log.t)} log samples over {float(log.t[-1]):.0f} s"
+            + (f", FBP {float(fbp) / 1e5:.1f} bar" if fbp is not None else ""))
+    truth = {**truth_model, "imposed": imposed, "realised": realised}
+    return SimulationResult(status=res.status, message=res.message, model=engine.model,
+                            record=log, clean_record=clean, truth=truth, paths=paths,
+                            n_steps=int(driver["n_steps"]), resumed=resumed, wall_time=wall,
+                            summary=text)
+

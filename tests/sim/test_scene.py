@@ -1,0 +1,202 @@
+"""Scenes: loading, validation messages, model choice, conversion to the lumped model."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from xlotkit import InputError
+from xlotkit.sim.lumped import load_lumped_scene, simulate_lumped
+from xlotkit.sim.scene import (
+    SCENE_KEYS,
+    Rock,
+    Scene,
+    Stresses,
+    carter_coefficient,
+    load_scene,
+    scene_from_dict,
+    scene_reference_markdown,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+EX = ROOT / "examples"
+PHASES = {"phase": [{"kind": "pump", "rate": "500 l/min", "volume": "1 m3"},
+                    {"kind": "shut_in", "duration": "5 min"}]}
+
+
+def _scene(**sections) -> dict:
+    return {**sections, "schedule": PHASES}
+
+
+def _bare(sc: Scene) -> Scene:
+    return dataclasses.replace(sc, given=frozenset(), source_text=None, source_file=None)
+
+
+def test_lumped_format_file_loads_and_simulates_identically():
+    sc = load_scene(EX / "lumped_standard.toml")
+    assert sc.resolved_model == "lumped" and sc.model == "lumped"
+    a = simulate_lumped(sc.to_lumped()).record
+    b = simulate_lumped(load_lumped_scene(EX / "lumped_standard.toml")).record
+    assert np.array_equal(a.pressure, b.pressure)
+    assert np.array_equal(a.channels["surface_pressure"], b.channels["surface_pressure"])
+    assert np.array_equal(a.return_volume, b.return_volume)
+
+
+def test_new_format_example_is_the_lumped_standard_scene():
+    new = load_scene(EX / "scene_standard.toml").to_lumped()
+    old = load_lumped_scene(EX / "lumped_standard.toml")
+    assert new.replace(noise=0.0, resolution=0.0, start_time=None) == old
+    assert new.noise == pytest.approx(5e3) and new.resolution == pytest.approx(1e3)
+
+
+def test_to_toml_round_trip():
+    for f in ("scene_standard.toml", "scene_2d_heterogeneous.toml", "lumped_standard.toml"):
+        sc = load_scene(EX / f)
+        back = scene_from_dict(tomllib.loads(sc.to_toml()))
+        assert _bare(back) == _bare(sc), f
+
+
+def test_defaults_and_units():
+    sc = scene_from_dict(_scene(rock={"permeability": "2 mD", "friction_angle": "0.5 rad"},
+                                completion={"depth": "1500 m"}, fluid={"viscosity": "1 cP"}))
+    assert sc.rock.permeability == pytest.approx(2 * 9.869233e-16)
+    assert sc.rock.friction_angle == pytest.approx(np.degrees(0.5))
+    assert sc.completion_model().length_md == 1500.0
+    assert sc.fluid.viscosity == pytest.approx(1e-3)
+    assert sc.stresses == Stresses() and sc.resolved_model == "lumped"
+
+
+@pytest.mark.parametrize("sections, key, value, allowed", [
+    ({"rock": {"permeability": "5000 darcy"}}, "rock.permeability", "'5000 darcy'",
+     "[0, 1e-09] m^2"),
+    ({"rock": {"poisson_ratio": 0.5}}, "rock.poisson_ratio", "0.5", "[0, 0.5)"),
+    ({"geometry": {"hole_radius": "-1 m"}}, "geometry.hole_radius", "'-1 m'",
+     "[0.01, 2] m"),
+    ({"output": {"noise": "-1 bar"}}, "output.noise", "'-1 bar'", "[0, 1e+07] Pa"),
+    ({"numerics": {"checkpoint_steps": 0}}, "numerics.checkpoint_steps", "0",
+     "[1, 1e+09]"),
+    ({"stresses": {"sigma_H": "20 MPa"}}, "stresses.sigma_H", "'20 MPa'", ">= sigma_h"),
+    ({"stresses": {"pore_pressure": "31 MPa"}}, "stresses.pore_pressure", "'31 MPa'",
+     "< sigma_h"),
+    ({"numerics": {"n1": 20, "n2": 5}}, "numerics.n1", "20", "<= n2"),
+    ({"mesh": {"jitter": 0.5}}, "mesh.jitter", "0.5", "[0, 0.3]"),
+    ({"model": "fem"}, "model", "'fem'", "'auto' or 'lumped' or 'mdem'"),
+    ({"completion": {"pipe_od": "14 in"}}, "completion.pipe_od", "'14 in'", "[0, 0.32"),
+])
+def test_validation_error_names_file_key_value_and_range(sections, key, value, allowed):
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(**sections), file="scene.toml")
+    e = ei.value
+    assert e.file == "scene.toml" and e.key == key
+    text = str(e)
+    assert text.startswith(f"scene.toml: {key}: ")
+    assert value in text and allowed in text
+
+
+def test_unknown_keys_list_the_allowed_ones():
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(rock={"permeabilty": 1e-18}), file="s.toml")
+    assert ei.value.key == "rock.permeabilty"
+    assert all(k in ei.value.expected for k in SCENE_KEYS["rock"])
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(stress_field={"x": 1}), file="s.toml")
+    assert ei.value.key == "stress_field" and "stresses" in ei.value.expected
+    with pytest.raises(InputError) as ei:
+        scene_from_dict({"rock": {}}, file="s.toml")
+    assert ei.value.key == "schedule"
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(schedule=None) | {"schedule": {"phase": [
+            {"kind": "pump", "rate": "-5 l/min", "volume": 1.0}]}}, file="s.toml")
+    assert ei.value.key == "schedule.phase[0].rate"
+
+
+def test_mesh_file_must_exist(tmp_path):
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(mesh={"file": "nope.msh"}), file=str(tmp_path / "s.toml"))
+    assert ei.value.key == "mesh.file" and "nope.msh" in ei.value.message
+    (tmp_path / "m.vtu").write_text("x")
+    sc = scene_from_dict(_scene(mesh={"file": "m.vtu"}), file=str(tmp_path / "s.toml"))
+    assert sc.mesh.file == str(tmp_path / "m.vtu") and sc.resolved_model == "mdem"
+
+
+def test_wrong_unit_dimension_is_reported():
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(lumped={"toughness": "3 MPa"}), file="s.toml")
+    assert ei.value.key == "lumped.toughness" and "dimension" in str(ei.value)
+
+
+def test_toml_syntax_error_has_the_line(tmp_path):
+    f = tmp_path / "bad.toml"
+    f.write_text("[rock]\nyoungs_modulus = = 3\n")
+    with pytest.raises(InputError) as ei:
+        load_scene(f)
+    assert ei.value.line == 2 and ei.value.file == str(f)
+
+
+@pytest.mark.parametrize("sections, reason", [
+    ({"mesh": {"growth": 1.3}}, "mesh"),
+    ({"effects": {"heterogeneity": True}}, "effects.heterogeneity"),
+    ({"effects": {"poroelastic": True}}, "effects.poroelastic"),
+    ({"effects": {"shear_dilation": True}}, "effects.shear_dilation"),
+    ({"effects": {"strength_scaling": True}}, "effects.strength_scaling"),
+    ({"effects": {"interface": [{"start": [1, -1], "end": ["1 m", "1 m"]}]}},
+     "effects.interface"),
+    ({"coupling": "wfd"}, "coupling"),
+])
+def test_auto_model_picks_mdem_for_2d_physics(sections, reason):
+    sc = scene_from_dict(_scene(**sections))
+    assert sc.resolved_model == "mdem" and reason in sc.two_d_reasons
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(**sections, model="lumped"), file="s.toml")
+    assert ei.value.key == reason and "lumped" in ei.value.message
+
+
+def test_auto_model_picks_lumped_without_2d_physics():
+    sc = scene_from_dict(_scene(effects={"pipe_friction": True, "well_storage": False},
+                                rock={"heterogeneity": 0.5}))
+    assert sc.resolved_model == "lumped" and sc.two_d_reasons == ()
+    ls = sc.to_lumped()
+    assert ls.pipe_friction
+    # without well storage only the open hole stores fluid
+    oh = np.pi * 0.15**2 * 10.0 * sc.fluid.compressibility
+    assert ls.c_well == pytest.approx(oh)
+
+
+def test_leakoff_derived_from_the_rock():
+    sc = scene_from_dict(_scene(rock={"permeability": "1 mD", "porosity": 0.2}))
+    ls = sc.to_lumped()
+    k, phi, mu, cf, dp = 9.869233e-16, 0.2, 0.01, sc.fluid.compressibility, 10e6
+    cv = np.sqrt(k * phi * dp / (2 * mu))
+    cc = dp * np.sqrt(k * phi * cf / (np.pi * mu))
+    assert ls.leakoff_coefficient == pytest.approx(2 * cv * cc / (cv + np.sqrt(cv**2 + 4 * cc**2)))
+    assert ls.leakoff_coefficient < min(cv, cc)
+    assert ls.wall_leak_index == pytest.approx(2 * np.pi * k * 10.0 / (mu * np.log(10.0)))
+    assert carter_coefficient(0.0, 0.1, 1e-9, 1e-3, 1e7) == 0.0
+
+
+def test_seeds_default_to_the_master_seed_and_with_seed_overrides():
+    sc = scene_from_dict(_scene(seed=5, output={"seed": 9}))
+    assert (sc.mesh_seed, sc.rock_seed, sc.noise_seed) == (5, 5, 9)
+    s2 = sc.with_seed(11)
+    assert (s2.mesh_seed, s2.rock_seed, s2.noise_seed) == (11, 11, 11)
+    assert s2.to_lumped().seed == 11
+
+
+def test_python_construction_is_validated_too():
+    with pytest.raises(InputError) as ei:
+        Rock(porosity=1.5)
+    assert ei.value.key == "rock.porosity" and "(0, 1)" in ei.value.expected
+
+
+def test_docs_list_every_key():
+    doc = (ROOT / "docs" / "simulate.md").read_text()
+    ref = scene_reference_markdown()
+    assert ref in doc, "docs/simulate.md is out of date: paste scene_reference_markdown()"
+    for sec, keys in SCENE_KEYS.items():
+        for k in keys:
+            assert re.search(rf"\| `{re.escape(k)}` \|", ref), (sec, k)
