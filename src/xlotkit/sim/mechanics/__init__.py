@@ -18,6 +18,7 @@ from xlotkit.sim.mechanics.breakdown import (
     PressureBreakdown,
     breakdown_pressure,
     crack_geometry,
+    crack_start_azimuth,
 )
 from xlotkit.sim.mechanics.solver import (
     BONDED,
@@ -59,6 +60,7 @@ __all__ = [
     "SolverOptions",
     "StrengthScaling",
     "breakdown_pressure",
+    "crack_start_azimuth",
     "crack_geometry",
     "crack_tip_toughness",
     "wall_pressure_at_first_failure",

@@ -40,7 +40,7 @@ from xlotkit.sim.mechanics.solver import (
     wall_pressure_at_first_failure,
 )
 
-__all__ = ["PressureBreakdown", "crack_geometry", "breakdown_pressure"]
+__all__ = ["PressureBreakdown", "breakdown_pressure", "crack_geometry", "crack_start_azimuth"]
 
 # halvings of a pressure increment tried when no equilibrium is found (see settle)
 _MAX_SUBSTEP_DEPTH = 3
@@ -72,6 +72,12 @@ class PressureBreakdown:
         ``pressure`` (see :func:`crack_geometry`).
     runaway_length : float
         Crack length [m] at which the run was stopped (at ``pressure``).
+    start_azimuth : float
+        Axis [rad, (-pi/2, pi/2]] along which the runaway crack leaves the hole: principal
+        axis of the crack clusters touching the wall (:func:`crack_start_azimuth`). Unlike
+        ``azimuth`` it does not depend on how the run ended: when the quasi-static
+        equilibrium is lost, the clusters failed in the unconverged cascade spread about
+        the crack, while the wall clusters still show where it started.
     state_below : MechanicsState
         Stable state at ``pressure_below``.
     state_after : MechanicsState or None
@@ -98,6 +104,34 @@ class PressureBreakdown:
     iterations: int
     solves: int
     history: list
+    start_azimuth: float = math.nan
+
+
+def crack_start_azimuth(model: MechanicsModel, cluster_state: np.ndarray) -> float:
+    """Axis [rad, (-pi/2, pi/2]] along which the hole-connected crack leaves the wall.
+
+    Principal axis (about the hole centre, area weighted) of the centroids of the crack
+    clusters that touch the hole wall; ``nan`` without such clusters. An axis, not a
+    direction: a two-winged crack along x gives 0 whichever wing is longer.
+    """
+    connected, _, _ = crack_geometry(model, cluster_state)
+    mesh = model.mesh
+    wall = np.zeros(mesh.n_nodes, dtype=bool)
+    wall[mesh.hole_nodes] = True
+    at_wall = connected & wall[mesh.triangles].any(axis=1)
+    if not at_wall.any():
+        return math.nan
+    c, _ = _hole(model)
+    xc = mesh.centroids[at_wall] - c
+    w = np.asarray(model.area)[at_wall]
+    evals, evecs = np.linalg.eigh((xc * w[:, None]).T @ xc)
+    d = evecs[:, int(np.argmax(evals))]
+    ang = math.atan2(d[1], d[0])
+    if ang <= -0.5 * math.pi:
+        ang += math.pi
+    elif ang > 0.5 * math.pi:
+        ang -= math.pi
+    return ang
 
 
 def _hole(model: MechanicsModel) -> tuple[np.ndarray, float]:
@@ -339,7 +373,9 @@ def breakdown_pressure(
             pressure=pressure, converged=ok, reason=why, initiation_pressure=p_i,
             pressure_below=p_lo, crack_length=len_lo, azimuth=az, runaway_length=run_len,
             state_below=st_lo, state_after=st_hi, iterations=counters["it"],
-            solves=counters["solves"], history=hist)
+            solves=counters["solves"], history=hist,
+            start_azimuth=(math.nan if st_hi is None
+                           else crack_start_azimuth(model, st_hi.cluster_state)))
 
     first = wall_pressure_at_first_failure(model, state, p_max, dp=dp, tol=tol)
     if first is None:
