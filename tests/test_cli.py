@@ -196,7 +196,10 @@ def test_simulate_bad_scene_is_one_line_and_exit_2(runner, tmp_path):
     assert res.exit_code == 2 and res.output.startswith("error: ")
 
 
-def test_simulate_2d_scene_says_the_engine_is_missing(runner, tmp_path):
+def test_simulate_2d_scene_says_the_engine_is_missing(runner, tmp_path, monkeypatch):
+    from xlotkit.sim import run as run_mod
+
+    monkeypatch.delitem(run_mod.ENGINES, "mdem")
     res = runner.invoke(main, ["simulate", str(EXAMPLES / "scene_2d_heterogeneous.toml"),
                                "--out", str(tmp_path / "o")])
     assert res.exit_code == 2

@@ -183,9 +183,11 @@ def test_engine_state_restores_bit_identically(standard):
     assert isinstance(e2, Engine)
 
 
-def test_mdem_needs_a_registered_engine(tmp_path):
+def test_mdem_needs_a_registered_engine(tmp_path, monkeypatch):
     sc = load_scene(ROOT / "examples" / "scene_2d_heterogeneous.toml")
     assert sc.resolved_model == "mdem"
+    assert "mdem" in run_mod.ENGINES                 # the 2D engine is built in
+    monkeypatch.delitem(run_mod.ENGINES, "mdem")
     with pytest.raises(EngineNotAvailable, match="mdem"):
         simulate(sc, tmp_path / "x")
     assert not (tmp_path / "x").exists()

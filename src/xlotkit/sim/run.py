@@ -41,8 +41,9 @@ A simulator is driven one step at a time through :class:`Engine`:
 
 Engines are made by factories ``factory(scene) -> Engine`` registered per model name in
 :data:`ENGINES` (:func:`register_engine`). ``lumped`` is built in
-(:class:`xlotkit.sim.lumped.LumpedEngine`); ``mdem`` is not yet, and asking for it raises
-:class:`EngineNotAvailable`.
+(:class:`xlotkit.sim.lumped.LumpedEngine`), and so is ``mdem``
+(:class:`xlotkit.sim.coupling.engine.MDEMEngine`, the 2D coupled model). A model without a
+registered engine raises :class:`EngineNotAvailable`.
 
 Driver
 ------
@@ -158,8 +159,14 @@ def _lumped_factory(scene: Scene) -> Engine:
     return LumpedEngine(scene.to_lumped().replace(noise=0.0, resolution=0.0))
 
 
+def _mdem_factory(scene: Scene) -> Engine:
+    from xlotkit.sim.coupling.engine import MDEMEngine
+
+    return MDEMEngine(scene)
+
+
 #: model name -> engine factory.
-ENGINES: dict[str, EngineFactory] = {"lumped": _lumped_factory}
+ENGINES: dict[str, EngineFactory] = {"lumped": _lumped_factory, "mdem": _mdem_factory}
 
 
 def register_engine(model: str, factory: EngineFactory) -> None:

@@ -1,0 +1,165 @@
+"""The 2D MDEM engine (xlotkit.sim.coupling.engine): well storage, choke flowback, schedule
+ends, mass balance, outputs, checkpoint/resume and bad scenes, on a small intact mesh.
+
+The rock here is too strong to fail (T0 = 50 MPa) and nearly impermeable (1e-21 m^2), so
+the well pressure follows the storage analytics: pumping ``dp/dt = Q / C_total`` and a
+fixed-choke flowback ``d sqrt(p_s)/dt = -zeta / (2 C_total)`` (SPEC §8, thesis Eq. C.5/C.6).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from xlotkit import InputError
+from xlotkit.interpret.io import read_log
+from xlotkit.sim.coupling.engine import MDEMEngine, build_model, total_well_compliance
+from xlotkit.sim.output import read_timeseries
+from xlotkit.sim.run import simulate
+from xlotkit.sim.scene import scene_from_dict
+
+Q = 500 / 60000          # 500 l/min [m^3/s]
+
+
+def _scene_dict(**over):
+    d = {
+        "title": "2D intact storage", "model": "mdem",
+        "geometry": {"domain_size": "4 m"},
+        "mesh": {"growth": 1.4, "wall_element_size": "0.06 m"},
+        "rock": {"tensile_strength": "50 MPa", "cohesion": "100 MPa",
+                 "permeability": 1e-21},
+        "stresses": {"sigma_H": "35 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa"},
+        "fluid": {"density": "1.2 sg"},
+        "numerics": {"dt_max": "1 s", "dp_max": "1 MPa"},
+        "output": {"snapshot_interval": "20 s"},
+        "schedule": {"phase": [
+            {"kind": "pump", "rate": "500 l/min", "duration": "30 s"},
+            {"kind": "shut_in", "duration": "10 s"},
+            {"kind": "flowback", "initial_rate": "300 l/min", "pressure_below": "24.5 MPa"},
+        ]},
+    }
+    for k, v in over.items():
+        d[k] = {**d.get(k, {}), **v} if isinstance(v, dict) else v
+    return d
+
+
+def _run(scene):
+    e = MDEMEngine(scene)
+    e.start()
+    while not e.is_done():
+        e.step()
+    return e
+
+
+@pytest.fixture(scope="module")
+def intact():
+    sc = scene_from_dict(_scene_dict())
+    return sc, _run(sc)
+
+
+def _c_total(scene):
+    """Whole-well compliance plus the hole's elastic enlargement (plane strain, infinite
+    plate: u_r = p a (1 + nu) / E, so dV/dp = 2 pi a^2 h (1 + nu) / E)."""
+    rk, g = scene.rock, scene.geometry
+    hole = 2 * math.pi * g.hole_radius ** 2 * g.segment_height * (1 + rk.poisson_ratio) / (
+        rk.youngs_modulus)
+    return total_well_compliance(scene) + hole
+
+
+def test_pressurisation_slope_is_rate_over_total_compliance(intact):
+    sc, e = intact
+    r = e.rows()
+    pump = (r["t"] > 2.0) & (r["t"] <= 30.0 + 1e-9)
+    slope = np.polyfit(r["t"][pump], r["bottomhole_pressure"][pump], 1)[0]
+    # pumps meter volume at surface density rho0; downhole the mass rho0 Q fills
+    # C rho(p) dp: dp/dt = Q rho0 / (rho(p) C_total), 1.1 % below Q / C_total at 25 MPa
+    p_mid = float(np.mean(r["bottomhole_pressure"][pump]))
+    dens = math.exp(-sc.fluid.compressibility * p_mid)
+    # 0.5 % (issue 5's storage criterion): the hole term is 0.3 % of C_total and the finite
+    # 4 m domain changes it by O((a/R)^2) ~ 1 % of that; leak-off at 1e-21 m^2 is < 1e-5
+    assert slope == pytest.approx(Q * dens / _c_total(sc), rel=5e-3)
+    assert slope == pytest.approx(Q / _c_total(sc), rel=0.02)
+    assert r["pumped_volume"][pump][-1] == pytest.approx(Q * 30.0, rel=1e-12)
+    # the standard 2000 m well (13-3/8" casing, 5" pipe) is ~70 l/MPa (thesis B.1)
+    assert 60e-9 < total_well_compliance(sc) < 75e-9          # m^3/Pa (measured 67.1)
+
+
+def test_choke_flowback_sqrt_pressure_linear_in_time(intact):
+    sc, e = intact
+    r = e.rows()
+    ph = [p for p in e.phases_out if p["kind"] == "flowback"][0]
+    sel = (r["t"] > ph["t_start"] + 1e-9) & (r["t"] <= ph["t_end"])
+    t, ps = r["t"][sel], r["surface_pressure"][sel]
+    coef = np.polyfit(t, np.sqrt(ps), 1)
+    resid = np.sqrt(ps) - np.polyval(coef, t)
+    # straight line to 0.2 % of its drop (backward Euler: each 1 s step lags the exact
+    # sqrt(p) decline by ~zeta dt / (4 C sqrt(p)), under 1 % of the step's drop)
+    assert np.max(np.abs(resid)) < 2e-3 * np.ptp(np.sqrt(ps))
+    # zeta from the initial rate at the start surface pressure
+    ps0 = float(np.interp(ph["t_start"], r["t"], r["surface_pressure"]))
+    zeta = (300 / 60000) / math.sqrt(ps0)
+    # d sqrt(p_s)/dt = -(zeta / 2 C) (rho0 / rho(p_w)) (dp_s/dp_w): the choke returns
+    # rho0 zeta sqrt(p_s) of mass, and the compressible column gives dp_s/dp_w =
+    # rho(p_s)/rho(p_w). 1 %: the backward-Euler lag of the 1 s steps (above)
+    cf = sc.fluid.compressibility
+    pw_mid = float(np.mean(r["bottomhole_pressure"][sel]))
+    fac = math.exp(-cf * pw_mid) * math.exp(-cf * (pw_mid - float(np.mean(ps))))
+    assert coef[0] == pytest.approx(-zeta * fac / (2 * _c_total(sc)), rel=0.01)
+    assert ph["end"] == "pressure_below"
+    # the pressure end is located to 10 kPa
+    assert r["bottomhole_pressure"][sel][-1] == pytest.approx(24.5e6, abs=1e4)
+    # returned volume = zeta integral of sqrt(p_s), the rows' rate times the step
+    assert r["returned_volume"][-1] > 0
+
+
+def test_mass_balance_every_step_and_no_fracture(intact):
+    _, e = intact
+    r = e.rows()
+    assert np.all(r["mass_balance_error"][1:] <= 1e-8)
+    assert np.all(r["failed_clusters"] == 0)
+    assert e.result().status == "ok"
+    assert [p["end"] for p in e.phases_out] == ["duration", "duration", "pressure_below"]
+
+
+def test_checkpoint_resume_is_bit_identical(intact):
+    sc, ref = intact
+    e = MDEMEngine(sc)
+    e.start()
+    for _ in range(14):
+        e.step()
+    saved = {k: (v if isinstance(v, str) else np.array(v)) for k, v in e.state().items()}
+    e2 = MDEMEngine(sc)
+    e2.restore(saved)
+    while not e2.is_done():
+        e2.step()
+    a, b = ref.rows(), e2.rows()
+    for k in a:
+        assert np.array_equal(a[k], b[k], equal_nan=True), k
+
+
+def test_simulate_writes_the_2d_outputs(tmp_path):
+    sc = scene_from_dict(_scene_dict())
+    res = simulate(sc, tmp_path / "run")
+    assert res.model == "mdem" and res.status == "ok"
+    out = read_timeseries(res.paths["timeseries"])
+    assert out.attrs["model"] == "mdem"
+    for col in ("bottomhole_pressure", "surface_pressure", "well_pressure",
+                "failed_clusters", "mass_balance_error", "fracture_length"):
+        assert col in out.series
+    log = read_log(res.paths["log"])
+    assert log.t[-1] == pytest.approx(res.clean_record.t[-1])
+    assert np.nanmax(np.abs(log.pressure - res.clean_record.pressure)) < 1.0  # Pa, no noise
+    assert (res.paths["dir"] / "fields.pvd").is_file()
+    assert len(list((res.paths["dir"] / "snapshots").glob("*.vtu"))) >= 3
+
+
+def test_bad_scenes_name_the_key(tmp_path):
+    with pytest.raises(InputError, match="coupling"):
+        MDEMEngine(scene_from_dict(_scene_dict(coupling="wfd")))
+    with pytest.raises(InputError, match="mesh.file"):
+        scene_from_dict(_scene_dict(mesh={"file": str(tmp_path / "none.vtu")}))
+    sc = scene_from_dict(_scene_dict(completion={"initial_pressure": "10 MPa"}))
+    with pytest.raises(InputError, match="completion.initial_pressure"):
+        build_model(sc)
