@@ -2,7 +2,8 @@
 
 KGD (plane-strain) hydraulic fracture in the toughness-dominated regime: zero fluid
 viscosity (uniform fluid pressure in the crack), impermeable rock, incompressible fracture
-fluid, optionally a compressible injection system and a pre-existing notch.
+fluid, optionally a compressible injection system, fluid storage along the crack and a
+pre-existing notch.
 """
 
 from __future__ import annotations
@@ -44,24 +45,31 @@ class KGDSolution:
 
 def kgd_toughness(t: float, rate: float, plane_strain_modulus: float, toughness: float, *,
                   notch_half_length: float = 0.0, system_compliance: float = 0.0,
-                  confining_stress: float = 0.0, initial_pressure: float | None = None
-                  ) -> KGDSolution:
+                  confining_stress: float = 0.0, initial_pressure: float | None = None,
+                  crack_storage: float = 0.0) -> KGDSolution:
     """Toughness-dominated KGD fracture at time ``t`` (both wings, per unit height).
 
     A uniformly pressurised plane-strain crack of half-length ``l`` and net pressure ``p``
     has the elliptical opening ``w(x) = (4 p / E') sqrt(l^2 - x^2)`` and volume
     ``V = 2 pi p l^2 / E'``; it propagates when ``K_I = p sqrt(pi l) = K_IC``. With the
-    injected volume shared between the crack and a compressible injection system of
-    compliance ``C`` (fluid at ``sigma + p``, starting from ``p_i``)::
+    injected volume shared between the crack, a compressible injection system of
+    compliance ``C`` and an optional storage along the crack of ``s`` per unit length of
+    crack (both wings: ``2 l s``; fluid at ``sigma + p``, starting from ``p_i``)::
 
-        Q t = V(l, p) + C (sigma + p - p_i)
+        Q t = V(l, p) + (C + 2 l s) (sigma + p - p_i)
 
     Growing: ``p = K_IC / sqrt(pi l)``, so ``Q t = 2 sqrt(pi) K_IC l^(3/2) / E'
-    + C (sigma + K_IC / sqrt(pi l) - p_i)``, solved for ``l`` on the stable branch
-    (``l`` at or beyond the minimum of the right side, and at least the notch). Without a
-    system compliance and a notch this is ``l = (E' Q t / (2 sqrt(pi) K_IC))^(2/3)``, i.e.
-    Detournay's K-vertex ``l = 0.9324 (E' Q t / K')^(2/3)`` with ``K' = 4 sqrt(2/pi) K_IC``.
-    Before the notch propagates: ``l = l_notch`` and ``p`` from the same volume balance.
+    + (C + 2 l s) (sigma + K_IC / sqrt(pi l) - p_i)``, solved for ``l`` on the stable
+    branch (``l`` at or beyond the minimum of the right side, and at least the notch).
+    Without a system compliance, crack storage and notch this is
+    ``l = (E' Q t / (2 sqrt(pi) K_IC))^(2/3)``, i.e. Detournay's K-vertex
+    ``l = 0.9324 (E' Q t / K')^(2/3)`` with ``K' = 4 sqrt(2/pi) K_IC``. Before the notch
+    propagates: ``l = l_notch`` and ``p`` from the same volume balance.
+
+    The crack storage ``s`` is for a model whose crack is a band of finite thickness
+    holding fluid in its own pore space, e.g. failed clusters of porosity ``phi`` in a
+    band of area ``b`` per unit crack length: ``s = phi c_f b`` (fluid compression; the
+    opening itself is ``V``).
 
     Parameters
     ----------
@@ -83,6 +91,10 @@ def kgd_toughness(t: float, rate: float, plane_strain_modulus: float, toughness:
     initial_pressure : float, optional
         System pressure at ``t = 0`` [Pa]; default ``sigma`` (no storage term at the
         start).
+    crack_storage : float
+        ``s`` [m^2/(Pa m)] per unit height: fluid volume stored per unit crack length and
+        unit pressure rise besides the opening (0: none). With ``s > 0`` the initial
+        pressure must not exceed ``sigma``.
 
     Returns
     -------
@@ -90,28 +102,50 @@ def kgd_toughness(t: float, rate: float, plane_strain_modulus: float, toughness:
     """
     Ep, K, Q, C = float(plane_strain_modulus), float(toughness), float(rate), float(
         system_compliance)
-    if not (Ep > 0 and K > 0 and Q > 0 and t >= 0 and C >= 0 and notch_half_length >= 0):
-        raise InputError("need E' > 0, K_IC > 0, Q > 0, t >= 0, C >= 0, notch >= 0",
-                         key="kgd")
+    S = float(crack_storage)
+    if not (Ep > 0 and K > 0 and Q > 0 and t >= 0 and C >= 0 and notch_half_length >= 0
+            and S >= 0):
+        raise InputError("need E' > 0, K_IC > 0, Q > 0, t >= 0, C >= 0, notch >= 0, "
+                         "crack storage >= 0", key="kgd")
     sig = float(confining_stress)
     pi0 = sig if initial_pressure is None else float(initial_pressure)
+    if S > 0 and pi0 > sig:
+        raise InputError("with crack storage the initial pressure must not exceed the "
+                         "confining stress", key="kgd.initial_pressure")
     vin = Q * t
 
     def grow(ell: float) -> float:            # injected volume needed at length ell
         p = K / math.sqrt(math.pi * ell)
-        return 2.0 * math.pi * p * ell ** 2 / Ep + C * (sig + p - pi0)
+        return 2.0 * math.pi * p * ell ** 2 / Ep + (C + 2.0 * ell * S) * (sig + p - pi0)
 
-    # the stable branch starts where d(grow)/dl = 0: 3 sqrt(pi) K sqrt(l)/E' =
-    # C K / (2 sqrt(pi) l^(3/2))  ->  l* = (C E' / (6 pi))^(1/2)
-    l_min = max(math.sqrt(C * Ep / (6.0 * math.pi)), notch_half_length)
+    # the stable branch starts where d(grow)/dl = 0; times l^(3/2):
+    # 3 sqrt(pi) K l^2 / E' + 2 S (sig - p_i) l^(3/2) + S K l / sqrt(pi)
+    #   - C K / (2 sqrt(pi)) = 0, increasing in l (sig >= p_i when S > 0);
+    # S = 0: l* = (C E' / (6 pi))^(1/2)
+    if C <= 0:
+        l_star = 0.0
+    elif S == 0:
+        l_star = math.sqrt(C * Ep / (6.0 * math.pi))
+    else:
+        rpi = math.sqrt(math.pi)
+
+        def slope(ell: float) -> float:
+            return (3.0 * rpi * K * ell ** 2 / Ep + 2.0 * S * (sig - pi0) * ell ** 1.5
+                    + S * K * ell / rpi - C * K / (2.0 * rpi))
+
+        hi_s = math.sqrt(C * Ep / (6.0 * math.pi))   # the root without S: an upper bound
+        l_star = (brentq(slope, 0.0, hi_s, xtol=1e-15, rtol=1e-13) if slope(hi_s) > 0
+                  else hi_s)
+    l_min = max(l_star, notch_half_length)
     if l_min > 0 and vin <= grow(l_min):
         ell = notch_half_length
         if ell <= 0:
             # no notch and the system is still being compressed: no crack yet
             p = (vin / C + pi0 - sig) if C > 0 else 0.0
             return KGDSolution(0.0, p, 0.0, 0.0, False)
-        # static notch: Q t = 2 pi p l^2 / E' + C (sig + p - p_i), linear in p
-        p = (vin - C * (sig - pi0)) / (2.0 * math.pi * ell ** 2 / Ep + C)
+        # static notch: Q t = 2 pi p l^2 / E' + (C + 2 l S) (sig + p - p_i), linear in p
+        cs = C + 2.0 * ell * S
+        p = (vin - cs * (sig - pi0)) / (2.0 * math.pi * ell ** 2 / Ep + cs)
         if p < K / math.sqrt(math.pi * ell):
             return KGDSolution(ell, p, 4.0 * p * ell / Ep, 2.0 * math.pi * p * ell ** 2 / Ep,
                                False)
