@@ -53,10 +53,27 @@ def main() -> None:
                      RockFlowProperties(1e-19, 0.1, 0.0, 20e6), WellCondition(rate=args.rate),
                      OuterBoundary.fixed_pressure(20e6), height=10.0)
     model = CoupledModel(mech, flow, residual_aperture=1e-5)
+    print(f"mesh: {mesh.n_triangles} triangles, {model.n_unknowns} unknowns", flush=True)
     t0 = time.perf_counter()
     stp = CoupledStepper(model)
+    marks = {"next": 1.0}
+
+    def progress(r, s):
+        # one line per metre of growth, so a run cut short still leaves its numbers
+        fs = fracture_summary(model, s)
+        if fs.length >= marks["next"]:
+            c = stp.counters
+            el = time.perf_counter() - t0
+            print(f"progress: L = {fs.length:.2f} m at t = {s.t:.2f} s, wall {el:.0f} s, "
+                  f"steps {c.steps}/{c.failed_steps} cut, Newton {c.newton_iterations}, "
+                  f"solves {c.linear_solves}, LU {100 * c.linear_solve_time / el:.0f} %, "
+                  f"failed {fs.n_failed}, p_w {s.p_w / 1e6:.3f} MPa", flush=True)
+            while marks["next"] <= fs.length:
+                marks["next"] += 1.0
+
     res = stp.run(args.t_max, TimeStepControl(dt_initial=2.0, dt_min=1e-4, dt_max=5.0),
-                  stop=lambda s: fracture_summary(model, s).length >= args.length)
+                  stop=lambda s: fracture_summary(model, s).length >= args.length,
+                  callback=progress)
     wall = time.perf_counter() - t0
     c = stp.counters
     fs = fracture_summary(model, stp.state)
