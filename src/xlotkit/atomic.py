@@ -12,7 +12,8 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "atomic_write_text", "fresh_sibling_dir", "save_figure"]
+__all__ = ["atomic_write", "atomic_write_text", "fresh_output_dir", "fresh_sibling_dir",
+           "save_figure"]
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], None], *,
@@ -85,3 +86,18 @@ def fresh_sibling_dir(path: str | Path) -> Path:
             return cand
         except FileExistsError:
             k += 1
+
+
+def fresh_output_dir(out: str | Path) -> Path:
+    """A results folder that holds no earlier results.
+
+    ``out`` itself when it does not exist or is empty; otherwise the first free sibling
+    ``out-2``, ``out-3``, ... (:func:`fresh_sibling_dir`, created exclusively).
+    """
+    out = Path(out)
+    if not out.exists():
+        out.mkdir(parents=True)
+        return out
+    if out.is_dir() and not any(out.iterdir()):
+        return out
+    return fresh_sibling_dir(out)

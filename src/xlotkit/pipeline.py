@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from xlotkit.atomic import atomic_write_text, fresh_sibling_dir
+from xlotkit.atomic import atomic_write_text, fresh_output_dir
 from xlotkit.errors import InputError
 from xlotkit.interpret.stress import GRAVITY
 from xlotkit.record import ATMOSPHERE_PA, Record
@@ -47,13 +47,7 @@ def new_output_dir(out: str | Path) -> Path:
     ``out-2``, ``out-3``, ... The folder is created exclusively, so two runs started at the
     same time cannot share one.
     """
-    out = Path(out)
-    if not out.exists():
-        out.mkdir(parents=True)
-        return out
-    if out.is_dir() and not any(out.iterdir()):
-        return out
-    return fresh_sibling_dir(out)
+    return fresh_output_dir(out)
 
 
 # --------------------------------------------------------------------------- stress

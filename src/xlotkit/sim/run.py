@@ -69,7 +69,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from xlotkit import __version__
-from xlotkit.atomic import atomic_write, atomic_write_text, fresh_sibling_dir
+from xlotkit.atomic import atomic_write, atomic_write_text, fresh_output_dir
 from xlotkit.errors import InputError, XlotkitError
 from xlotkit.record import Record
 from xlotkit.sim.output import (
@@ -248,15 +248,6 @@ def _scene_hash(scene: Scene) -> str:
     return hashlib.sha256(scene.to_toml().encode("utf-8")).hexdigest()
 
 
-def _fresh_dir(out: Path) -> Path:
-    if not out.exists():
-        out.mkdir(parents=True)
-        return out
-    if out.is_dir() and not any(out.iterdir()):
-        return out
-    return fresh_sibling_dir(out)
-
-
 def _save_checkpoint(path: Path, engine: Engine, driver: dict[str, Any]) -> None:
     arrays: dict[str, Any] = {}
     for k, v in engine.state().items():
@@ -342,7 +333,7 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
                              key="resume", expected="the folder of an interrupted run")
         target = out
     else:
-        target = _fresh_dir(out)
+        target = fresh_output_dir(out)
     paths: dict[str, Path] = {"dir": target, "scene": target / "scene.toml",
                               "scene_resolved": target / "scene.resolved.toml"}
     if not resumed:
