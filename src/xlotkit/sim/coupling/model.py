@@ -76,6 +76,8 @@ from xlotkit.sim.mechanics import (
     FAILED_TENSILE,
     INTACT,
     PRESET,
+    OPEN,
+    SLIP,
     MechanicsModel,
     MechanicsState,
 )
@@ -551,7 +553,8 @@ class CoupledModel:
     def residual_and_jacobian(self, x: np.ndarray, old: CoupledState, dt: float,
                               undrained: bool = False, structure: Structure | None = None,
                               soft: np.ndarray | None = None,
-                              permeability_derivative: bool = True) -> CoupledResidual:
+                              permeability_derivative: bool = True,
+                              frozen: tuple | None = None) -> CoupledResidual:
         """Residual and Jacobian at the iterate ``x`` for the step from ``old``.
 
         Parameters
@@ -572,6 +575,13 @@ class CoupledModel:
             Include ``dR_f/dk dk/du`` (the aperture dependence of the crack permeability)
             in the Jacobian; False gives the lagged-permeability (Picard) Jacobian. The
             residual is the same either way.
+        frozen : tuple ``(mask, status, sign)`` of arrays (m, 3), optional
+            Contacts whose law is held on one branch: where ``mask`` is set, the contact
+            force follows the linear law of the given status (``OPEN``: no force;
+            ``STICK``: ``k_n``/``k_s`` springs; ``SLIP``: normal spring and the Coulomb
+            force ``sign mu (-F_n)``) whatever the trial forces, in the residual and the
+            tangent alike. Where the iterate lies on that branch this is the exact law;
+            elsewhere it is its linear continuation (active-set inner solve).
         """
         self._require_init()
         mech = self.mechanics
@@ -589,6 +599,9 @@ class CoupledModel:
         dpw = x[nu + m] - self.pw0
         Fn, Fs, status, sgn, f_c, Un, Us = mech._response(
             u, cs, np.asarray(st.ref_normal), np.asarray(st.ref_shear), p)
+        if frozen is not None:
+            Fn, Fs, status, sgn, f_c = self._frozen_law(frozen, failed, st, p, Fn, Fs,
+                                                        status, sgn, f_c, Un, Us)
         duc = du_full[mech.dofs]
         coef = self.coefficients(cs)
         lin = np.einsum("cij,cj->ci", mech.k_intact, duc) - (coef * dp)[:, None] * self._g
@@ -661,6 +674,31 @@ class CoupledModel:
         mass_scale = fr.throughput + self._gross_storage(it, old) / dt
         return CoupledResidual(R, J, force_scale, mass_scale, fr, it,
                                (Fn, Fs, status, Un, Us), k)
+
+    def _frozen_law(self, frozen, failed, st, p, Fn, Fs, status, sgn, f_c, Un, Us):
+        """Contact forces with the contacts of ``frozen`` held on a given branch."""
+        mask, fst, fsg = frozen
+        mask = np.asarray(mask, dtype=bool) & failed[:, None]
+        if not mask.any():
+            return Fn, Fs, status, sgn, f_c
+        mech = self.mechanics
+        fst = np.asarray(fst)
+        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
+        is_open = fst == OPEN
+        Fn_f = np.where(is_open, 0.0, trial_n)
+        Fs_f = np.where(is_open, 0.0, np.where(fst == SLIP, fsg * mech.mu * (-trial_n),
+                                               trial_s))
+        Fn = np.where(mask, Fn_f, Fn)
+        Fs = np.where(mask, Fs_f, Fs)
+        status = np.where(mask, fst, status)
+        sgn = np.where(mask, fsg, sgn)
+        rows = np.flatnonzero(mask.any(axis=1))
+        f_c = f_c.copy()
+        f_c[rows] = (np.einsum("cmi,cm->ci", mech.bn_c[rows], Fn[rows])
+                     + np.einsum("cmi,cm->ci", mech.bs_c[rows], Fs[rows])
+                     - p[rows, None] * mech.g_pressure[rows])
+        return Fn, Fs, status, sgn, f_c
 
     def _gross_storage(self, st: CoupledState, old: CoupledState) -> float:
         """Sum of the magnitudes of the separate storage terms of a step [kg]."""

@@ -1,16 +1,19 @@
 """Implicit monolithic steps with cluster failure, adaptive time stepping and runs.
 
 One :meth:`CoupledStepper.step` solves the (u, p, p_w) system by a semi-smooth Newton
-(the contact statuses open/stick/slip of failed clusters are re-evaluated at every iterate,
-with a backtracking line search and a stick-stiffness tangent for chattering contacts when
-Newton struggles), then checks every intact cluster with
+(the contact statuses open/stick/slip of failed clusters are re-evaluated at every iterate;
+contacts that keep switching are held on one branch of their law and the branch is settled
+by an active-set update once the rest has converged), then checks every intact cluster with
 :meth:`MechanicsModel.failure_margins`; overstressed clusters fail (most overstressed first,
 at most ``failures_per_round`` per round) and the *same* step is solved again, until no
 cluster is overstressed. The mass balance of the converged step is checked. A step that
 fails (Newton, too many new failures, too large a well-pressure change, mass balance) leaves
 the state unchanged and says why; :meth:`CoupledStepper.run` adapts the step (thesis 4.5.2:
 cut when more than ``N2`` clusters fail in a step, grow when fewer than ``N1`` fail, plus
-Newton-iteration and pressure-change rules, a floor and a ceiling).
+Newton-iteration and pressure-change rules, a floor and a ceiling; while the crack runs
+into a falling well pressure the failure limit follows the crack size; at the floor a step
+is solved by continuation in its length and, if that fails, stepped over by a longer one).
+See docs/coupling.md, "Breakdown into a large well storage".
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import scipy.sparse.linalg as spla
 
 from xlotkit.errors import InputError
 from xlotkit.sim.coupling.model import CoupledModel, CoupledResidual, CoupledState, Structure
-from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT
+from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT, OPEN, SLIP, STICK
 
 __all__ = [
     "CoupledControl",
@@ -55,10 +58,20 @@ class CoupledControl:
     mass_balance_tol : float
         A converged step whose relative mass-balance error exceeds this is rejected.
     line_search_after : int
-        Newton iterations after which a backtracking line search on the scaled residual
-        norm is used and chattering contacts get their stick stiffness in the tangent.
+        Newton iterations (since the last change of the held contact branches or of the
+        Jacobian) after which a backtracking line search on the scaled residual norm is
+        used (only with the full Jacobian: a lagged one gives no descent direction).
     chatter_flips : int
         Status changes after which a contact counts as chattering.
+    chatter : str
+        What is done with a chattering contact: ``"freeze"`` (default) holds it on its
+        present branch of the contact law (open, stick or slip with a fixed sign: the law
+        is linear there) until the rest has converged, then checks the branch against the
+        exact law and moves the contacts on a wrong branch, one at a time in a fixed order
+        (all at once when more than two are wrong), never returning to a branch set
+        already tried; the step converges only on the exact law. ``"soft"`` (the former
+        behaviour) linearises it with its stick stiffness after ``line_search_after``
+        iterations.
     check_failure : bool
         Apply the failure criteria after each converged solve.
     failures_per_round : int
@@ -70,7 +83,25 @@ class CoupledControl:
         leaves out the aperture dependence of the crack permeability (Picard on ``k``);
         below it the full Jacobian is used. ``0`` always lags, ``1`` never (see docs:
         Newton started from a freshly failed, open but unfilled cluster follows the
-        ``w -> 0`` root of the cubic-law flux otherwise).
+        ``w -> 0`` root of the cubic-law flux otherwise). With ``0 < rtol < 1`` Picard is
+        also left, for the rest of the solve, once it has stopped converging (the mass
+        residual not halved over three iterations, from the sixth on).
+    stall_iterations : int
+        A solve is abandoned (``"newton: stalled"``) when, at least this many iterations
+        after the held branches last changed, none of the last half of them has brought
+        the scaled residual norm below half its value before them: a local minimum of the
+        residual norm (a turning point of the step's equations), which the time step, not
+        more iterations, has to get past. ``0``: only ``max_newton``.
+    continuation_levels, continuation_cut, continuation_newton :
+        Continuation in the step length (used by :meth:`CoupledStepper.step` with
+        ``continuation=True``, which :meth:`CoupledStepper.run` does at the floor): when
+        the solve of a step of ``dt`` fails, the same equations (backward Euler from the
+        same state) are solved for a shorter ``h`` (``h_ok + continuation_cut (h -
+        h_ok)``, ``h_ok`` the longest one solved) and then for rising ``h`` (each
+        increment twice the last, from the secant extrapolation of the last two
+        solutions), with the failure rounds at every level, up to ``dt``; the result is
+        the step of ``dt``. At most ``continuation_levels`` back-offs, each solve at most
+        ``continuation_newton`` iterations (the last one ``max_newton``).
     """
 
     max_newton: int = 60
@@ -84,13 +115,25 @@ class CoupledControl:
     failures_per_round: int = 4
     max_failure_rounds: int = 200
     lagged_permeability_rtol: float = 1e-3
+    chatter: str = "freeze"
+    stall_iterations: int = 12
+    continuation_levels: int = 12
+    continuation_cut: float = 0.25
+    continuation_newton: int = 25
 
     def __post_init__(self) -> None:
-        for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips"):
+        for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips",
+                  "continuation_newton"):
             if int(getattr(self, k)) < 1:
                 raise InputError("must be >= 1", key=f"coupling.{k}")
-        if int(self.line_search_after) < 0:
-            raise InputError("must be >= 0", key="coupling.line_search_after")
+        for k in ("line_search_after", "stall_iterations", "continuation_levels"):
+            if int(getattr(self, k)) < 0:
+                raise InputError("must be >= 0", key=f"coupling.{k}")
+        if self.chatter not in ("freeze", "soft"):
+            raise InputError(f"must be 'freeze' or 'soft', got {self.chatter!r}",
+                             key="coupling.chatter")
+        if not 0 < self.continuation_cut < 1:
+            raise InputError("must be in (0, 1)", key="coupling.continuation_cut")
         for k in ("force_rtol", "mass_rtol", "stagnation_rtol", "mass_balance_tol"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and 0 < v < 1):
@@ -107,8 +150,9 @@ class TimeStepControl:
         First step [s].
     dt_min, dt_max : float
         Floor and ceiling [s]. At the floor the failure-count and pressure-change rules are
-        waived (the step is taken with however many failures it needs); a Newton or
-        mass-balance failure at the floor ends the run.
+        waived (the step is taken with however many failures it needs) and the step is
+        solved with continuation in its length (``continuation``); if it still fails,
+        longer steps (``jump``) are tried; a run ends only when those fail too.
     growth : float
         Factor after an easy step (fewer than ``n1`` new failures, at most
         ``newton_easy`` Newton iterations, well-pressure change below half ``dp_max``).
@@ -121,6 +165,21 @@ class TimeStepControl:
         Newton iterations (all rounds of the step) that still count as easy.
     dp_max : float
         Largest well-pressure change per step [Pa]; larger steps are rejected.
+    crack_growth : float
+        While the crack runs (the last step failed clusters and the well pressure fell:
+        breakdown into the well storage), a step may fail up to
+        ``max(n2, crack_growth * n_failed)`` clusters: the crack must grow by many clusters
+        while the stored well fluid flows in, and a fixed count would force the floor.
+        ``0``: the plain ``n2`` rule.
+    jump, jump_tries : float, int
+        After a failure at the floor, steps of ``dt_min * jump^k`` (``k = 1 ..
+        jump_tries``, capped by ``dt_max`` and the next mark) with all rules waived; the
+        first that converges is taken. A cluster structure can lose its solution over a
+        short step (a turning point of the step's equations, e.g. an unfilled crack-tip
+        cell); a longer step lands beyond it. ``jump_tries = 0``: end the run instead.
+    continuation : bool
+        Solve floor steps with continuation in the step length
+        (:class:`CoupledControl`).
     """
 
     dt_initial: float = 1.0
@@ -132,6 +191,10 @@ class TimeStepControl:
     n2: int = 8
     newton_easy: int = 10
     dp_max: float = math.inf
+    crack_growth: float = 0.5
+    jump: float = 4.0
+    jump_tries: int = 4
+    continuation: bool = True
 
     def __post_init__(self) -> None:
         if not (self.dt_initial > 0 and self.dt_min > 0 and self.dt_max >= self.dt_min):
@@ -144,6 +207,12 @@ class TimeStepControl:
             raise InputError("need 0 <= n1 <= n2", key="time_step.n1")
         if not self.dp_max > 0:
             raise InputError("must be > 0", key="time_step.dp_max")
+        if not self.crack_growth >= 0:
+            raise InputError("must be >= 0", key="time_step.crack_growth")
+        if not self.jump > 1:
+            raise InputError("must be > 1", key="time_step.jump")
+        if int(self.jump_tries) < 0:
+            raise InputError("must be >= 0", key="time_step.jump_tries")
 
 
 @dataclass
@@ -183,9 +252,10 @@ class StepResult:
     ----------
     success : bool
     reason : str
-        ``"converged"``, ``"newton: no convergence"``, ``"newton: singular"``,
-        ``"newton: non-finite"``, ``"too many failures"``, ``"too many failure rounds"``,
-        ``"pressure change"`` or ``"mass balance"``.
+        ``"converged"``, ``"newton: no convergence"``, ``"newton: stalled"``,
+        ``"newton: active set cycles"``, ``"newton: singular"``, ``"newton: non-finite"``,
+        ``"too many failures"``, ``"too many failure rounds"``, ``"pressure change"`` or
+        ``"mass balance"``.
     newton_iterations, linear_solves : int
         Over all failure rounds of the step.
     dt : float
@@ -209,6 +279,8 @@ class StepResult:
         Well-pressure change [Pa].
     n_failed : int
         Failed clusters after the step.
+    continuation_levels : int
+        Back-offs of the continuation in the step length (0: solved directly).
     """
 
     success: bool
@@ -228,6 +300,7 @@ class StepResult:
     failure_rounds: int = 0
     dp_w: float = float("nan")
     n_failed: int = 0
+    continuation_levels: int = 0
 
 
 @dataclass(frozen=True)
@@ -316,9 +389,32 @@ class CoupledStepper:
         return ru, rf, float(np.linalg.norm(R[:nu]) / res.force_scale) ** 2 + (
             rf / max(res.mass_scale, 1e-300)) ** 2
 
-    def _newton(self, x, old, dt, undrained, st):
-        """Semi-smooth Newton on the coupled residual for fixed cluster states."""
+    def _floor(self, res: CoupledResidual, x: np.ndarray) -> float:
+        """Round-off floor of ``sum |R_f|`` at the iterate ``x`` [kg/s]."""
+        nu = self.model.n_u
+        Jf = abs(res.jacobian[nu:])
+        return 4.0 * np.finfo(float).eps * float(np.sum(Jf @ np.abs(x)))
+
+    def _law_status(self, res: CoupledResidual, st: Structure):
+        """Status (open/stick/slip) and shear sign of every contact under the exact law at
+        the iterate of ``res``."""
+        mech = self.model.mechanics
+        Un, Us = res.response[3], res.response[4]
+        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
+        cap = mech.mu * np.maximum(-trial_n, 0.0)
+        law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
+        return law, np.sign(trial_s)
+
+    def _newton(self, x, old, dt, undrained, st, max_it=None):
+        """Semi-smooth Newton on the coupled residual for fixed cluster states.
+
+        Chattering contacts are held on a branch of their law (``CoupledControl.chatter``)
+        and the branches settled by an active-set update; Picard on the crack permeability
+        first; a stall ends the solve early.
+        """
         model, ctl = self.model, self.control
+        max_newton = ctl.max_newton if max_it is None else int(max_it)
         its = solves = 0
         self.last_newton_trace = []
         prev = math.inf
@@ -328,16 +424,39 @@ class CoupledStepper:
         flips = None
         soft = None
         full_k = ctl.lagged_permeability_rtol >= 1.0
-        while True:
-            res = model.residual_and_jacobian(x, old, dt, undrained=undrained, structure=st,
-                                              soft=soft, permeability_derivative=full_k)
+        freeze = ctl.chatter == "freeze"
+        nc = model.n_cells
+        # held contacts: mask, branch (OPEN/STICK/SLIP) and slip sign
+        fmask = np.zeros((nc, 3), dtype=bool)
+        fstat = np.zeros((nc, 3), dtype=np.int64)
+        fsgn = np.zeros((nc, 3))
+        frz = None
+        seen: set = set()        # branch sets tried
+        since = 0                # iterations since the held branches (or Jacobian) changed
+        merits: list = []        # scaled residual norms since the held branches changed
+        merit0 = math.inf
+        pending = None           # residual of the accepted line-search point
+        rfs: list = []           # mass residuals of the iterations
+
+        def evaluate(xx, frozen):
             self.counters.residual_evaluations += 1
+            return model.residual_and_jacobian(xx, old, dt, undrained=undrained,
+                                               structure=st, soft=soft,
+                                               permeability_derivative=full_k,
+                                               frozen=frozen)
+
+        while True:
+            res = evaluate(x, frz) if pending is None else pending
+            pending = None
             R = res.residual
             if not np.all(np.isfinite(R)):
                 reason = "newton: non-finite"
                 break
             ru, rf, merit = self._scaled(res)
             self.last_newton_trace.append((its, ru, rf / max(res.mass_scale, 1e-300)))
+            if since == 0:
+                merits = []
+            merits.append(merit)
             atol = 1e-18 * float(np.sum(model.flow.cell_mass(res.state.flow))) / dt
             # the well row's storage C_w rho (p_w - p_w^n)/dt carries the round-off of
             # p_w itself (eps |p_w|): with a whole well's compliance and nothing moving
@@ -345,21 +464,81 @@ class CoupledStepper:
             atol += 16 * np.finfo(float).eps * model.well_storage * abs(
                 res.state.p_w) * float(model.flow.fluid.density) / dt
             u_ok = ru <= ctl.force_rtol
-            if u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol:
+            conv = u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol
+            if not conv and its > 0 and u_ok and rf > 0.5 * prev:
+                # stagnating: accepted below stagnation_rtol or at the residual's
+                # round-off floor, eps sum_ij |dR_i/dx_j| |x_j| over the flow rows (each
+                # term's share of the rounding of x_j: a wide open crack's transmissibility
+                # times |p| makes this floor, not the mass scale, the limit)
+                conv = rf <= ctl.stagnation_rtol * res.mass_scale + atol + self._floor(res, x)
+            if conv and frz is not None:
+                # converged with contacts held on branches: done if the exact law agrees
+                # (on its own branch the held law is the exact one), else move the
+                # contacts that sit on a wrong branch
+                exact = evaluate(x, None)
+                eru, erf, _ = self._scaled(exact)
+                if (eru <= ctl.force_rtol and erf <= ctl.stagnation_rtol * exact.mass_scale
+                        + atol + self._floor(exact, x)):
+                    res = exact
+                    ok, reason = True, "converged"
+                    break
+                law, lsg = self._law_status(exact, st)
+                wrong = fmask & ((law != fstat) | ((law == SLIP) & (lsg != fsgn)))
+                if not wrong.any():
+                    # (only at round-off: the exact law is then the held one) release all
+                    fmask[:] = False
+                    frz = None
+                    flips[:] = 0
+                    prev = math.inf
+                    since = 0
+                    continue
+                # one contact at a time in a fixed order (least index, as in Murty's
+                # pivoting rule: moving two coupled contacts at the corner of the law at
+                # once can cycle), all at once first when more than two are wrong; a
+                # branch set already tried is skipped
+                cand = [(c, k) for c, k in zip(*np.nonzero(wrong))]
+                trials = [[ck] for ck in cand] + [cand]
+                if len(cand) > 2:
+                    trials = [cand] + trials
+                for sel in trials:
+                    ts_, tg_ = fstat.copy(), fsgn.copy()
+                    for c, k in sel:
+                        ts_[c, k] = law[c, k]
+                        tg_[c, k] = lsg[c, k] if law[c, k] == SLIP else 0.0
+                    key = (fmask.tobytes(), ts_[fmask].tobytes(), tg_[fmask].tobytes())
+                    if key not in seen:
+                        break
+                else:
+                    reason = "newton: active set cycles"
+                    break
+                seen.add(key)
+                fstat, fsgn = ts_, tg_
+                frz = (fmask.copy(), fstat, fsgn)
+                prev = math.inf
+                since = 0
+                continue
+            if conv:
                 ok, reason = True, "converged"
                 break
-            if (its > 0 and u_ok and rf <= ctl.stagnation_rtol * res.mass_scale + atol
-                    and rf > 0.5 * prev):
-                ok, reason = True, "converged"
+            if its >= max_newton:
                 break
-            if its >= ctl.max_newton:
+            w = int(ctl.stall_iterations)
+            hw = w // 2
+            if w > 0 and len(merits) >= w and min(merits[-hw:]) > 0.5 * merits[-hw - 1]:
+                reason = "newton: stalled"
                 break
-            want_full = rf <= ctl.lagged_permeability_rtol * res.mass_scale
-            if want_full != full_k:
-                full_k = want_full
-                res = model.residual_and_jacobian(x, old, dt, undrained=undrained,
-                                                  structure=st, soft=soft,
-                                                  permeability_derivative=full_k)
+            # Picard on the crack permeability while far from the solution, Newton once
+            # close, or once Picard has stopped converging (it is only linear: mass
+            # residual not halved over three iterations, from the sixth on); no return to
+            # Picard within the solve (switching at the threshold back and forth changes
+            # the Jacobian every iteration)
+            rfs.append(rf)
+            lag = ctl.lagged_permeability_rtol
+            if not full_k and (rf <= lag * res.mass_scale
+                               or (lag > 0 and its >= 6 and rf > 0.5 * rfs[-4])):
+                full_k = True
+                since = 0
+                res = evaluate(x, frz)
             status = res.response[2]
             if prev_status is not None:
                 flips = flips + (status != prev_status)
@@ -367,13 +546,29 @@ class CoupledStepper:
                 flips = np.zeros(status.shape, dtype=np.int64)
             prev_status = status
             prev = rf
-            if its >= ctl.line_search_after:
+            if its == 0:
+                merit0 = merit
+            if freeze:
+                # chattering contacts are held on their present branch; only at iterates
+                # no worse than the start (the statuses of a wild iterate say nothing)
+                new = (flips >= ctl.chatter_flips) & ~fmask
+                if merit <= merit0 and new.any():
+                    fmask |= new
+                    fstat[new] = status[new]
+                    fsgn[new] = np.where(status[new] == SLIP,
+                                         self._law_status(res, st)[1][new], 0.0)
+                    frz = (fmask.copy(), fstat.copy(), fsgn.copy())
+                    seen.add((fmask.tobytes(), fstat[fmask].tobytes(),
+                              fsgn[fmask].tobytes()))
+                    since = 0
+                    res = evaluate(x, frz)
+                    R = res.residual
+                    ru, rf, merit = self._scaled(res)
+            elif its >= ctl.line_search_after:
                 new_soft = flips >= ctl.chatter_flips
                 if new_soft.any() and (soft is None or not np.array_equal(new_soft, soft)):
                     soft = new_soft
-                    res = model.residual_and_jacobian(x, old, dt, undrained=undrained,
-                                                      structure=st, soft=soft,
-                                                      permeability_derivative=full_k)
+                    res = evaluate(x, frz)
             t0 = time.perf_counter()
             try:
                 dx = _equilibrated_solve(res.jacobian, -R)
@@ -387,19 +582,20 @@ class CoupledStepper:
                 reason = "newton: non-finite"
                 break
             step = 1.0
-            if its >= ctl.line_search_after:
+            if since >= ctl.line_search_after and full_k:
                 # backtracking on the scaled residual norm (the full step is tried first:
                 # with the right active set it terminates; at corners of the contact law
-                # the statuses can cycle and the line search restores descent)
+                # the statuses can cycle and the line search restores descent); not with
+                # the lagged Jacobian, whose direction need not descend
                 for _ in range(8):
-                    trial = model.residual_and_jacobian(x + step * dx, old, dt,
-                                                        undrained=undrained, structure=st)
-                    self.counters.residual_evaluations += 1
+                    trial = evaluate(x + step * dx, frz)
                     if np.all(np.isfinite(trial.residual)) and self._scaled(trial)[2] < merit:
+                        pending = trial
                         break
                     step *= 0.5
             x = x + step * dx
             its += 1
+            since += 1
         self.counters.newton_iterations += its
         self.counters.linear_solves += solves
         return ok, reason, x, res, its, solves
@@ -429,7 +625,7 @@ class CoupledStepper:
 
     # ---------------------------------------------------------------- steps
     def step(self, dt: float, max_new_failures: int | None = None,
-             max_dp_w: float | None = None) -> StepResult:
+             max_dp_w: float | None = None, continuation: bool = False) -> StepResult:
         """Advance by ``dt`` [s] with failure updates (load at the step end, well rate at
         the midpoint).
 
@@ -442,10 +638,13 @@ class CoupledStepper:
         max_dp_w : float, optional
             Reject the step (``"pressure change"``) if the well pressure changes by more
             [Pa].
+        continuation : bool
+            If the solve fails, solve the same step by continuation in its length
+            (``CoupledControl.continuation_*``) before giving up.
         """
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
             raise InputError(f"time step must be > 0, got {dt!r}", key="dt")
-        return self._solve(float(dt), False, max_new_failures, max_dp_w)
+        return self._solve(float(dt), False, max_new_failures, max_dp_w, bool(continuation))
 
     def step_undrained(self) -> StepResult:
         """Instantaneous (undrained) response to the load at the current time: no flow
@@ -453,15 +652,24 @@ class CoupledStepper:
         ``t = 0``."""
         return self._solve(1.0, True, None, None)
 
-    def _reject(self, reason, its, solves, dt, old, rounds, new=0, **kw) -> StepResult:
+    def _reject(self, reason, its, solves, dt, old, rounds, new=0, levels=0,
+                **kw) -> StepResult:
         self.counters.failed_steps += 1
         r = StepResult(False, reason, its, solves, dt, old.t, new_failures=new,
-                       failure_rounds=rounds, n_failed=old.n_failed, **kw)
+                       failure_rounds=rounds, n_failed=old.n_failed,
+                       continuation_levels=levels, **kw)
         self.history.append(r)
         return r
 
+    @staticmethod
+    def _predict(h, h_done, x_done, h_prev, x_prev):
+        """Secant predictor of the level-``h`` solution from the last two levels."""
+        if h_prev is None or h_done <= h_prev:
+            return x_done
+        return x_done + (h - h_done) / (h_done - h_prev) * (x_done - x_prev)
+
     def _solve(self, dt: float, undrained: bool, max_new: int | None,
-               max_dp_w: float | None) -> StepResult:
+               max_dp_w: float | None, continuation: bool = False) -> StepResult:
         model, ctl = self.model, self.control
         mech = model.mechanics
         old = self.state
@@ -470,34 +678,56 @@ class CoupledStepper:
         t_new = old.t if undrained else old.t + dt
         step_dt = 0.0 if undrained else dt
         its = solves = rounds = new_total = 0
+        # continuation in the step length: on a failed solve the step's equations
+        # (backward Euler over h from the old state) are solved for a shorter h, then for
+        # rising h, each level from the extrapolation of the last two, with the failure
+        # rounds at every level; the last level is h = dt, the step itself
+        h, h_done, x_done, h_prev, x_prev = dt, 0.0, x, None, None
+        levels = 0
         while True:
-            ok, reason, x, res, i, s = self._newton(x, old, dt, undrained, st)
+            backoff = continuation and not undrained and levels < ctl.continuation_levels
+            ok, reason, x, res, i, s = self._newton(
+                x, old, h, undrained, st, ctl.continuation_newton if backoff else None)
             its += i
             solves += s
             rounds += 1
             if not ok:
-                return self._reject(reason, its, solves, step_dt, old, rounds, new_total)
-            if undrained or not ctl.check_failure:
-                break
-            trial = model.finish_state(res, st).mechanics
-            mt, ms = mech.failure_margins(trial)
-            cs = np.asarray(st.cluster_state)
-            intact = cs == INTACT
-            tens = intact & (mt >= 0.0)
-            shear = intact & ~tens & (ms >= 0.0)
-            cand = np.flatnonzero(tens | shear)
+                if not backoff:
+                    return self._reject(reason, its, solves, step_dt, old, rounds, new_total,
+                                        levels)
+                h = h_done + ctl.continuation_cut * (h - h_done)
+                x = self._predict(h, h_done, x_done, h_prev, x_prev)
+                levels += 1
+                continue
+            cand = np.zeros(0, dtype=np.int64)
+            if not undrained and ctl.check_failure:
+                trial = model.finish_state(res, st).mechanics
+                mt, ms = mech.failure_margins(trial)
+                cs = np.asarray(st.cluster_state)
+                intact = cs == INTACT
+                tens = intact & (mt >= 0.0)
+                shear = intact & ~tens & (ms >= 0.0)
+                cand = np.flatnonzero(tens | shear)
             if cand.size == 0:
-                break
+                if h >= dt:
+                    break
+                # this level settled: the next increment twice the last
+                h_prev, x_prev, h_done, x_done = h_done, x_done, h, x
+                h = min(dt, h + 2.0 * (h - h_prev))
+                if dt - h <= 1e-9 * dt:
+                    h = dt
+                x = self._predict(h, h_done, x_done, h_prev, x_prev)
+                continue
             if max_new is not None and new_total + cand.size > max_new:
                 return self._reject("too many failures", its, solves, step_dt, old, rounds,
-                                    new_total + int(cand.size))
+                                    new_total + int(cand.size), levels)
             if rounds > ctl.max_failure_rounds:
                 return self._reject("too many failure rounds", its, solves, step_dt, old,
-                                    rounds, new_total + int(cand.size))
+                                    rounds, new_total + int(cand.size), levels)
             T_c, S_c = mech.strengths(cs)
             sev = np.maximum(mt / np.maximum(T_c, 1.0), ms / np.maximum(S_c, 1.0))[cand]
             cand = cand[np.argsort(-sev, kind="stable")][: int(ctl.failures_per_round)]
-            st = self._fail(st, cand, tens, res, t_new)
+            st = self._fail(st, cand, tens, res, old.t + h)
             new_total += int(cand.size)
             self.counters.failure_rounds += 1
         fr = res.flow
@@ -522,10 +752,10 @@ class CoupledStepper:
                     relative_mass_balance_error=rel, force_residual=ru, dp_w=dpw)
         if rel > ctl.mass_balance_tol:
             return self._reject("mass balance", its, solves, step_dt, old, rounds, new_total,
-                                **diag)
+                                levels, **diag)
         if max_dp_w is not None and abs(dpw) > max_dp_w:
             return self._reject("pressure change", its, solves, step_dt, old, rounds,
-                                new_total, **diag)
+                                new_total, levels, **diag)
         # commit the frictional slip of the converged step
         ref_s, slip = mech._commit_slip(res.response, np.array(st.ref_shear),
                                         np.array(st.slip), np.asarray(st.cluster_state))
@@ -534,7 +764,8 @@ class CoupledStepper:
         self.counters.steps += 1
         self.counters.failed_clusters += new_total
         r = StepResult(True, reason, its, solves, step_dt, t_new, new_failures=new_total,
-                       failure_rounds=rounds, n_failed=self.state.n_failed, **diag)
+                       failure_rounds=rounds, n_failed=self.state.n_failed,
+                       continuation_levels=levels, **diag)
         self.history.append(r)
         return r
 
@@ -567,6 +798,7 @@ class CoupledStepper:
         rejected = 0
         max_rel = 0.0
         min_dt = math.inf
+        running = False   # last step failed clusters into a falling well pressure
         while self.state.t < t_end * (1.0 - 1e-14) - 1e-300:
             t = self.state.t
             target = next((v for v in marks if v > t * (1 + 1e-14)), t_end)
@@ -575,16 +807,34 @@ class CoupledStepper:
             # land on the target instead of leaving a sliver
             if target - t - h_try < c.dt_min:
                 h_try = target - t
-            r = self.step(h_try, max_new_failures=None if at_floor else int(c.n2),
-                          max_dp_w=None if at_floor or math.isinf(c.dp_max) else c.dp_max)
+            max_new = None if at_floor else int(c.n2)
+            if max_new is not None and running and c.crack_growth > 0:
+                # the crack runs into the well storage: limit its growth, not the count
+                max_new = max(max_new, int(math.ceil(c.crack_growth * self.state.n_failed)))
+            r = self.step(h_try, max_new_failures=max_new,
+                          max_dp_w=None if at_floor or math.isinf(c.dp_max) else c.dp_max,
+                          continuation=at_floor and c.continuation)
             if not r.success:
                 rejected += 1
-                if at_floor:
+                if not at_floor:
+                    h = max(h_try * c.cut, c.dt_min)
+                    continue
+                # failed at the floor: step over it with longer steps, all rules waived
+                hj = h_try
+                for _ in range(int(c.jump_tries)):
+                    hj = min(hj * c.jump, c.dt_max, target - t)
+                    if hj <= h_try * (1.0 + 1e-9):
+                        break
+                    r = self.step(hj, continuation=c.continuation)
+                    if r.success:
+                        break
+                    rejected += 1
+                if not r.success:
                     return CoupledRunResult(
                         "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
                         f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
-                h = max(h_try * c.cut, c.dt_min)
-                continue
+                h_try = hj
+            running = r.new_failures > 0 and r.dp_w < 0.0
             acc.append(r)
             max_rel = max(max_rel, r.relative_mass_balance_error)
             min_dt = min(min_dt, r.dt)
