@@ -507,7 +507,10 @@ class MDEMEngine:
             h_try = target - t
         h_try = max(h_try, 1e-12)
         at_floor = h_try <= num.dt_min * (1.0 + 1e-9)
-        r = stp.step(h_try, max_new_failures=None if at_floor else int(num.n2))
+        # at the floor, a failed solve is retried by continuation in the step length (a
+        # turning point of the step's equations at breakdown, docs/coupling.md)
+        r = stp.step(h_try, max_new_failures=None if at_floor else int(num.n2),
+                     continuation=at_floor)
         if (r.success and not at_floor and r.new_failures == 0
                 and abs(r.dp_w) > float(num.dp_max)):
             # the pressure-change rule bounds the smooth change of p_w per step; a jump at
