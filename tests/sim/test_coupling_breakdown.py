@@ -7,7 +7,10 @@ compliance of a long well on the segment (7e-8 m^3/Pa, ~70 l/MPa: a 2000 m well)
 by the crack-tip toughness until breakdown, then runs: the compressed well fluid flows into
 it while the well pressure falls. The stepper must go through with the 1e-4 s floor of
 docs/coupling.md ("Breakdown into a large well storage") without a step failing there.
-Measured (2 cores, other jobs running): ~25-40 s.
+Measured: 18 s alone, up to 50 s with other jobs on the 2 cores. (The stepper before
+these changes failed at the floor on this case with the cluster-average tip criterion of
+6f73956; with the K_I criterion of e1eb2f5 it passes too, so this is a regression test of
+the breakdown, not a discriminating one.)
 """
 
 from __future__ import annotations
@@ -93,15 +96,17 @@ def test_mass_balance_every_step(breakdown):
 
 def test_pressure_falls_after_breakdown(breakdown):
     model, stp, res, rows = breakdown
-    t, pw, length = rows[:, 0], rows[:, 1], rows[:, 2]
+    pw, length = rows[:, 1], rows[:, 2]
     k = int(np.argmax(pw))
     fbp = pw[k]
     # breakdown well above sigma_h, after the linear rise; the crack is short there
     assert fbp > SIGMA_h + 5e6
     assert length[k] < 1.5
-    # then the well pressure falls while the crack runs (more than 0.1 MPa by the end,
-    # measured ~0.3 MPa: the run stops when the crack reaches 2 m) and never rises again
-    # by more than round-off-sized amounts
+    # then the well pressure falls while the crack runs (more than 0.1 MPa by the end;
+    # measured 37.91 -> 37.54 MPa (cluster-average tip criterion) and -> 37.35 MPa (K_I
+    # criterion): the run stops when the crack reaches 2 m)
+    # and does not rise again (1 kPa: margin for a step of the arrested crack being
+    # pumped up; measured: none at the 1 kPa resolution of the log)
     assert pw[-1] < fbp - 0.1e6
     assert np.all(np.diff(pw[k:]) <= 1e3)
     assert length[-1] >= 2.0
