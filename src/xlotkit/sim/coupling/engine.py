@@ -282,6 +282,10 @@ class MDEMEngine:
         num = sc.numerics
         self.control = CoupledControl(max_newton=int(num.max_newton))
         self.rho0 = float(self.cm.flow.fluid.density)
+        mesh = self.cm.mesh
+        wall = np.zeros(mesh.n_nodes, dtype=bool)
+        wall[mesh.hole_nodes] = True
+        self._at_wall = wall[mesh.triangles].any(axis=1)      # clusters touching the hole
         self._wall0 = _time.perf_counter()
 
     def _fresh_state(self) -> CoupledState:
@@ -596,10 +600,7 @@ class MDEMEngine:
         cs = st.cluster_state
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
         p = np.asarray(st.p)
-        mesh = self.cm.mesh
-        wall = np.zeros(mesh.n_nodes, dtype=bool)
-        wall[mesh.hole_nodes] = True
-        mouth = cracked & wall[mesh.triangles].any(axis=1)
+        mouth = cracked & self._at_wall
         pf = float(np.mean(p[mouth])) if mouth.any() else st.p_w
         m = self.cm.flow.cell_mass(st.flow)
         intact = ~cracked
@@ -666,10 +667,7 @@ class MDEMEngine:
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
             "h": self._h, "i_ph": self._i_ph, "in_phase": self._in_phase,
-            "ctx": {k: (None if isinstance(v, float) and math.isinf(v) else v)
-                    for k, v in self._ctx.items()},
-            "ctx_inf": [k for k, v in self._ctx.items()
-                        if isinstance(v, float) and math.isinf(v)],
+            "ctx": self._ctx,            # json writes inf as Infinity and reads it back
             "v_in": self._v_in, "v_ret": self._v_ret, "v_out": self._v_out,
             "phase_v0": list(self._phase_v0), "retry": self._retry,
             "phases_out": self.phases_out, "events": self.events, "status": self.status,
@@ -702,10 +700,7 @@ class MDEMEngine:
         self._rows = {k: arr[f"row.{k}"].astype(float).tolist() for k in _ROW_KEYS}
         self._h = float(scal["h"])
         self._i_ph, self._in_phase = int(scal["i_ph"]), bool(scal["in_phase"])
-        ctx = dict(scal["ctx"])
-        for k in scal["ctx_inf"]:
-            ctx[k] = math.inf
-        self._ctx = ctx
+        self._ctx = dict(scal["ctx"])
         self._v_in, self._v_ret, self._v_out = scal["v_in"], scal["v_ret"], scal["v_out"]
         self._phase_v0 = tuple(scal["phase_v0"])
         self._retry = scal["retry"]
@@ -762,10 +757,7 @@ class MDEMEngine:
         st = self.stepper.state
         cs = st.cluster_state
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR)
-        mesh = self.cm.mesh
-        wall = np.zeros(mesh.n_nodes, dtype=bool)
-        wall[mesh.hole_nodes] = True
-        sel = cracked & wall[mesh.triangles].any(axis=1)
+        sel = cracked & self._at_wall
         if not sel.any():
             return {}
         return {"tensile_strength": float(np.mean(
