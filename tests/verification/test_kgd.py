@@ -243,27 +243,21 @@ def coupled_kgd_errors():
 def test_coupled_kgd_against_toughness_solution():
     """Coupled run vs the KGD toughness solution with the model's apparent toughness
     (:func:`coupled_kgd_errors`), compared once the crack is >= 20 band elements long
-    (l >= 0.4 m). Measured errors and their cause: docs/coupling.md, "KGD verification".
-
-    Re-measured with the K_I crack-tip criterion (interaction integral, independent of the
-    tip shape, docs/mechanics.md): K_app = 1.0228 MPa sqrt(m), the crack grows straight and
-    symmetric in the band row (failed centroids |y| <= 0.014 m, tips -0.80 / +0.80 m);
-    36 steps compared: length +6.7 ... +12.1 % (8 steps above 10 %), mouth opening
-    -2.0 ... 0.0 %, net pressure mean -8.3 % (max 10.6 %). Most of the length excess is the
-    fluid accounting at failure (CoupledStepper._fail: V^off = (alpha - 1) A eps_vol keeps a
-    failing cluster's elastic dilatation out of its pore volume although it is part of the
-    crack opening; 7 % of the crack's volume at l = 0.32 m). Counting it as pore volume
-    (experiment, stepper patched; 42 steps) gave length +3.6 ... +7.3 %, mouth
-    -4.3 ... -1.9 %, net pressure mean -7.1 % (max 9.2 %)."""
+    (l >= 0.4 m). Measured (K_I crack-tip criterion, ``failure_dilatation="pore"``,
+    2026-12-01): K_app = 1.0228 MPa sqrt(m), 42 steps compared (l = 0.41 ... 0.82 m):
+    length +3.6 ... +7.3 %, mouth opening -4.3 ... -1.9 %, net pressure -9.2 ... -5.4 %,
+    mass balance <= 7.5e-17 per step. With ``"continuous"`` (the pre-failure stretch of
+    a tip cluster kept out of the crack volume) the length error reached +12.1 %. History
+    and the error budget: docs/coupling.md, "KGD verification"."""
     err_l, err_w, err_p, info = coupled_kgd_errors()
     assert info["status"] == "stopped", info["message"]
     assert info["max_mass_balance"] <= 1e-8
     assert len(err_l) >= 10
-    # length and mouth opening: within 10 % at every step once >= 20 elements long
+    # issue 5: length, mouth opening and net pressure within 10 % of the KGD solution at
+    # every compared step. 10 % covers what the discrete model cannot remove: the tip
+    # advances a band element (5 % of l at l = 0.4 m) at a time, so length and pressure
+    # saw-tooth around the continuous solution, and the band's failed clusters are a
+    # 2 cm wide strip, not a line crack (the measured bias is -7 % in pressure).
     assert np.max(np.abs(err_l)) <= 0.10, err_l
     assert np.max(np.abs(err_w)) <= 0.10, err_w
-    # net pressure: the discrete tip advances a cluster at a time and arrests between
-    # (the pressure builds until the next tip cluster fails, then drops): within 10 % on
-    # average, the arrest peaks larger (measured, see docs/coupling.md)
-    assert abs(np.mean(err_p)) <= 0.10, err_p
-    assert np.max(np.abs(err_p)) <= 0.35, err_p
+    assert np.max(np.abs(err_p)) <= 0.10, err_p

@@ -26,8 +26,9 @@ Flow, per cell [kg/s]: :meth:`FlowModel.residual_and_jacobian` with
 * the extra pore volume ``V^x_c = coef_c h (g_c . (u - u_0)_c) + V^off_c`` (``coef = alpha``
   intact, 1 failed; ``g_c . du_c = A_c eps_vol,c``): the Biot skeleton volume change of an
   intact cluster, the *whole* area change of a failed one. The crack's volume is part of
-  that area change and is counted there once (never again from the aperture); ``V^off`` is
-  set when a cluster fails so that ``V^x`` is continuous across the switch of ``coef``;
+  that area change and is counted there once (never again from the aperture); ``V^off``
+  is zero unless ``failure_dilatation="continuous"``, which sets it when a cluster fails
+  so that ``V^x`` is continuous across the switch of ``coef``;
 * the permeability of a failed cluster ``k = k_m + w_h^3 / (12 Delta)`` (cubic law
   up-scaled, Eq. 4.2-4.3, :func:`~xlotkit.sim.flow.fracture.crack_permeability`) with the
   hydraulic aperture ``w_h = w_res + w_n``, ``w_n`` the largest contact gap of the cluster
@@ -331,6 +332,18 @@ class CoupledModel:
         applies.
     hole_volume_change : bool
         Include the hole's enlargement by the wall displacement in the well storage.
+    failure_dilatation : {"pore", "continuous"}
+        What a cluster's dilatation becomes when it fails and its pressure coefficient
+        switches from ``alpha`` to 1 (the two agree for ``alpha = 1``). ``"pore"``
+        (default): from then on its whole area change since the in-situ state is pore
+        volume, ``V^x = h A eps_vol``. The elastic stretch a crack-tip cluster carries
+        before it breaks is the crack-opening displacement near the tip of the continuum
+        crack, so it belongs to the crack volume; the fluid in the cluster then fills it
+        (its pressure drops by the jump in ``V^x`` and flow refills it, mass conserved).
+        ``"continuous"``: ``V^off = (alpha - 1) h A eps_vol`` keeps ``V^x`` continuous,
+        so only the opening after failure is pore volume; with ``alpha < 1`` this leaves
+        the pre-failure stretch out of the crack and the crack grows too long for the
+        fluid injected (KGD: +12 % in length, docs/coupling.md).
     """
 
     def __init__(self, mechanics: MechanicsModel, flow: FlowModel, *, fixed_dofs=None,
@@ -338,7 +351,8 @@ class CoupledModel:
                  check_storage: bool = True, residual_aperture: float = 1e-6,
                  length_scale=None, well_compliance: float = 0.0,
                  well_rate: WellRateFunction | None = None,
-                 hole_volume_change: bool = True) -> None:
+                 hole_volume_change: bool = True,
+                 failure_dilatation: str = "pore") -> None:
         if not isinstance(mechanics, MechanicsModel):
             raise InputError("expected a MechanicsModel", key="mechanics")
         if not isinstance(flow, FlowModel):
@@ -358,8 +372,13 @@ class CoupledModel:
         if well_rate is not None and flow.well.pressure_controlled:
             raise InputError("the flow's well is pressure controlled",
                              key="coupling.well_rate")
+        if failure_dilatation not in ("pore", "continuous"):
+            raise InputError(f"unknown value {failure_dilatation!r}",
+                             key="coupling.failure_dilatation",
+                             expected="'pore' or 'continuous'")
         self.mechanics = mechanics
         self.flow = flow
+        self.failure_dilatation = failure_dilatation
         self.mesh = mesh
         self.height = float(flow.height)
         self.biot = float(mechanics.rock.biot)

@@ -603,8 +603,8 @@ class CoupledStepper:
     # ---------------------------------------------------------------- failure
     def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
               res: CoupledResidual, t_new: float) -> Structure:
-        """Switch clusters ``cand`` to failed at the iterate of ``res`` (forces and pore
-        volume continuous)."""
+        """Switch clusters ``cand`` to failed at the iterate of ``res`` (forces continuous;
+        the pore volume as ``CoupledModel.failure_dilatation`` says)."""
         model = self.model
         mech = model.mechanics
         u = np.asarray(res.state.displacement)
@@ -613,10 +613,11 @@ class CoupledStepper:
                                           np.array(st.ref_shear))
         cs = np.array(st.cluster_state)
         cs[cand] = np.where(tensile[cand], FAILED_TENSILE, FAILED_SHEAR)
-        du = (u.reshape(-1) - model.u0)[mech.dofs[cand]]
-        gdu = np.einsum("ci,ci->c", model._g[cand], du)          # A eps_vol [m^2]
         voff = np.array(st.volume_offset)
-        voff[cand] += (model.biot - 1.0) * model.height * gdu
+        if model.failure_dilatation == "continuous":
+            du = (u.reshape(-1) - model.u0)[mech.dofs[cand]]
+            gdu = np.einsum("ci,ci->c", model._g[cand], du)      # A eps_vol [m^2]
+            voff[cand] += (model.biot - 1.0) * model.height * gdu
         ft = np.array(st.failure_time)
         ft[cand] = t_new
         fv = np.array(st.failure_volume)
