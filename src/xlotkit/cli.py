@@ -468,3 +468,101 @@ def simulate_cmd(scene_file: str, out: str, resume: bool, seed: int | None) -> N
                f"{tr['sigma_H'] / 1e5:.1f} bar, T0 {tr['tensile_strength'] / 1e5:.1f} bar, "
                f"p0 {tr['pore_pressure'] / 1e5:.1f} bar")
     click.echo(f"results in {res.paths['dir']}" + (" (resumed)" if res.resumed else ""))
+
+
+# ====================================================================== library
+@main.group("library")
+def library_group() -> None:
+    """The synthetic XLOT library: simulate its scenes, check the picks against the truth."""
+
+
+def _progress_bar(desc: str):
+    from tqdm import tqdm
+
+    bar = tqdm(total=1000, desc=desc, unit="", file=sys.stderr,
+               bar_format="{l_bar}{bar}| {elapsed}<{remaining} {postfix}", mininterval=0.5)
+
+    def progress(frac: float, msg: str) -> None:
+        n = int(round(1000 * frac))
+        if n > bar.n:
+            bar.set_postfix_str(msg[:60], refresh=False)
+            bar.update(n - bar.n)
+
+    return bar, progress
+
+
+@library_group.command("build")
+@click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
+@click.option("--only", "names", multiple=True, metavar="NAME",
+              help="Only this scene (repeatable).")
+@click.option("--replace", is_flag=True,
+              help="Simulate every selected scene again and replace its stored log and truth "
+                   "(without it, scenes that have a log are kept).")
+@_friendly_errors
+def library_build_cmd(root: str, names: tuple[str, ...], replace: bool) -> None:
+    """Simulate the scenes of library ROOT (ROOT/<name>/scene.toml) and store each log
+    (log.csv) and truth (truth.json) beside its scene."""
+    from xlotkit.library import build
+
+    bar, progress = _progress_bar("library")
+    with bar:
+        out = build(root, names or None, replace=replace, progress=progress)
+    for o in out:
+        if o.action == "kept":
+            click.echo(f"{o.entry.name}: kept (has a log; --replace simulates it again)")
+        else:
+            click.echo(f"{o.entry.name}: {o.status}, {o.wall_time:.1f} s: {o.message}")
+
+
+@library_group.command("check")
+@click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
+@click.option("--only", "names", multiple=True, metavar="NAME",
+              help="Only this scene (repeatable).")
+@click.option("--markdown", "markdown", type=click.Path(dir_okay=False), default=None,
+              metavar="FILE", help="Also write the table to FILE (a new file only).")
+@_friendly_errors
+def library_check_cmd(root: str, names: tuple[str, ...], markdown: str | None) -> None:
+    """Pick every stored log of library ROOT and compare with the realised stresses.
+
+    Flowback system-stiffness FCP within 3 % of sigma_h where a flowback goes through
+    closure; shut-in methods within 5 % where the shut-in holds a closure and no pick where
+    it clearly does not. Exit status 1 when any scene misses.
+    """
+    from pathlib import Path
+
+    from xlotkit.atomic import atomic_write_text
+    from xlotkit.library import entries, evaluate, evaluation_markdown
+
+    if markdown is not None and Path(markdown).exists():
+        raise InputError("exists already; results are never written over", file=markdown,
+                         expected="a new file name")
+    evals = [evaluate(e) for e in entries(root, names or None)]
+    table = evaluation_markdown(evals)
+    click.echo(table)
+    if markdown is not None:
+        atomic_write_text(Path(markdown), table)
+    misses = [(ev.entry.name, f) for ev in evals
+              for f in (*ev.failures, *(x for c in ev.cycles for x in c.failures))]
+    for name, f in misses:
+        click.echo(f"MISS {name}: {f}")
+    if misses:
+        sys.exit(1)
+
+
+@library_group.command("compare")
+@click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
+@click.option("--only", "names", multiple=True, metavar="NAME",
+              help="Only this scene (repeatable).")
+@_friendly_errors
+def library_compare_cmd(root: str, names: tuple[str, ...]) -> None:
+    """Simulate the scenes of library ROOT again (in a temporary folder) and compare each new
+    log with the stored one. Exit status 1 when any differs."""
+    from xlotkit.library import compare
+
+    bar, progress = _progress_bar("compare")
+    with bar:
+        out = compare(root, names or None, progress=progress)
+    for c in out:
+        click.echo(f"{c.entry.name}: {'same' if c.same else 'DIFFERENT'} ({c.message})")
+    if not all(c.same for c in out):
+        sys.exit(1)
