@@ -471,3 +471,44 @@ def test_dilatation_at_failure_is_pore_volume_or_kept_continuous(hole_mesh, mode
 def test_unknown_failure_dilatation_is_refused(hole_mesh):
     with pytest.raises(InputError, match="failure_dilatation"):
         _model(hole_mesh, failure_dilatation="elastic")
+
+
+def test_newton_backs_off_a_non_finite_update(hole_mesh):
+    """A Newton update whose residual is not finite (rho(p) overflowing at a wild cell
+    pressure) is shortened along its direction instead of ending the solve; the step then
+    converges to the same answer as an undisturbed one. The overflow is imitated: the
+    residual at the first full Newton update is made non-finite."""
+    q = 2e-6
+    model = _model(hole_mesh, biot=0.8, well=WellCondition(storage=5e-11, rate=q),
+                   outer=OuterBoundary.fixed_pressure(P0), k=1e-16)
+    ref = CoupledStepper(model)
+    assert ref.step(5.0).success
+    real = model.residual_and_jacobian
+
+    def run(control):
+        calls = []
+
+        def wild(x, *a, **kw):
+            out = real(x, *a, **kw)
+            calls.append(x[-1])
+            if len(calls) == 2:           # the first update lands "too far"
+                out.residual[:] = np.nan
+            return out
+
+        model.residual_and_jacobian = wild
+        try:
+            stp = CoupledStepper(model, control=control)
+            return stp.step(5.0), stp, calls
+        finally:
+            del model.residual_and_jacobian
+
+    r, stp, calls = run(CoupledControl())
+    assert r.success, r.reason
+    pw0 = model.initial_state().p_w
+    # the third evaluation is a quarter of the way along the rejected update
+    assert calls[2] - pw0 == pytest.approx(0.25 * (calls[1] - pw0), rel=1e-9)
+    jump = abs(ref.state.p_w - pw0)
+    assert stp.state.p_w == pytest.approx(ref.state.p_w, rel=0, abs=1e-6 * jump)
+    # without back-offs the same disturbance ends the solve
+    r, _, _ = run(CoupledControl(nonfinite_backoffs=0))
+    assert not r.success and r.reason == "newton: non-finite"

@@ -102,6 +102,10 @@ class CoupledControl:
         solutions), with the failure rounds at every level, up to ``dt``; the result is
         the step of ``dt``. At most ``continuation_levels`` back-offs, each solve at most
         ``continuation_newton`` iterations (the last one ``max_newton``).
+    nonfinite_backoffs : int
+        A Newton update whose residual is not finite (e.g. ``rho(p)`` overflowing at a
+        wild pressure) is shortened by a factor 4 up to this many times before the solve
+        fails with ``"newton: non-finite"``.
     """
 
     max_newton: int = 60
@@ -120,13 +124,15 @@ class CoupledControl:
     continuation_levels: int = 12
     continuation_cut: float = 0.25
     continuation_newton: int = 25
+    nonfinite_backoffs: int = 8
 
     def __post_init__(self) -> None:
         for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips",
                   "continuation_newton"):
             if int(getattr(self, k)) < 1:
                 raise InputError("must be >= 1", key=f"coupling.{k}")
-        for k in ("line_search_after", "stall_iterations", "continuation_levels"):
+        for k in ("line_search_after", "stall_iterations", "continuation_levels",
+                  "nonfinite_backoffs"):
             if int(getattr(self, k)) < 0:
                 raise InputError("must be >= 0", key=f"coupling.{k}")
         if self.chatter not in ("freeze", "soft"):
@@ -437,6 +443,8 @@ class CoupledStepper:
         merit0 = math.inf
         pending = None           # residual of the accepted line-search point
         rfs: list = []           # mass residuals of the iterations
+        x_from = step_dx = None  # the last Newton update, to back off along it
+        backoffs = 0
 
         def evaluate(xx, frozen):
             self.counters.residual_evaluations += 1
@@ -450,8 +458,17 @@ class CoupledStepper:
             pending = None
             R = res.residual
             if not np.all(np.isfinite(R)):
+                # a wild update (a cell pressure so far out that rho(p) = exp(c_f p)
+                # overflows): back off along it before giving up; the solution of the step
+                # need not be far, only the linearisation was poor there
+                if step_dx is not None and backoffs < ctl.nonfinite_backoffs:
+                    backoffs += 1
+                    step_dx = 0.25 * step_dx
+                    x = x_from + step_dx
+                    continue
                 reason = "newton: non-finite"
                 break
+            backoffs = 0
             ru, rf, merit = self._scaled(res)
             self.last_newton_trace.append((its, ru, rf / max(res.mass_scale, 1e-300)))
             if since == 0:
@@ -593,7 +610,8 @@ class CoupledStepper:
                         pending = trial
                         break
                     step *= 0.5
-            x = x + step * dx
+            x_from, step_dx = x, step * dx
+            x = x + step_dx
             its += 1
             since += 1
         self.counters.newton_iterations += its
