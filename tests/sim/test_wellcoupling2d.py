@@ -197,14 +197,14 @@ def test_segment_step_failure_is_reported_and_changes_nothing(seg_model):
 @pytest.fixture(scope="module")
 def intact_runs():
     out = {}
-    for c in ("monolithic", "wfd", "wfc", "wfdmod"):
+    for c in ("wfd", "wfc", "wfdmod"):
         sc = scene_from_dict(_intact_dict(coupling=c))
         out[c] = (sc, _run(make_engine(sc)))
     return out
 
 
 def test_partitioned_scenes_run_on_the_partitioned_engine(intact_runs):
-    assert type(intact_runs["monolithic"][1]) is MDEMEngine
+    assert type(make_engine(scene_from_dict(_intact_dict()))) is MDEMEngine
     for c in ("wfd", "wfc", "wfdmod"):
         e = intact_runs[c][1]
         assert isinstance(e, PartitionedMDEMEngine) and e.strategy == c
@@ -221,7 +221,8 @@ def test_pressurisation_slope_of_the_well_is_rate_over_total_compliance(intact_r
         dens = math.exp(-sc.fluid.compressibility * float(np.mean(
             r["bottomhole_pressure"][pump])))
         # as for the monolithic engine (test_engine2d, 0.5 %): the well side stores with
-        # the fluid's density exactly as the monolithic well row does
+        # the fluid's density exactly as the monolithic well row does (WFC included: its
+        # base rate keeps the segment on the well's slope while nothing leaks)
         assert slope == pytest.approx(Q * dens / _c_total(sc), rel=5e-3), c
 
 
@@ -331,3 +332,149 @@ def test_bad_partitioned_scenes_name_the_key():
     # a [well_coupling] section is ignored by monolithic and the scene round-trips
     sc = scene_from_dict(_intact_dict(well_coupling={"wfc_gain": 0.5}))
     assert sc.well_coupling.options().wfc_gain == 0.5
+
+
+# =========================================================================== breakdown
+TOL = 1e-5           # a tight WFD tolerance: 0.4 kPa at 40 MPa
+
+
+@pytest.fixture(scope="module")
+def breakdown():
+    """Monolithic and WFD (tolerance TOL) through breakdown and the first 20 ms of the
+    crack run; every accepted WFD step is recorded with its start state, and the
+    monolithic step of the same length from the same segment state is computed beside it
+    (the segment with the well's storage on its borehole, i.e. MDEMEngine's step)."""
+    mono = _run(make_engine(scene_from_dict(_breakdown_dict())))
+    e = make_engine(scene_from_dict(_breakdown_dict(
+        coupling="wfd", well_coupling={"tolerance": TOL, "rate_tolerance": TOL,
+                                       "max_iterations": 20})))
+    e.start()
+    stp = e.stepper
+    steps = []
+    take = stp.step
+
+    def step(dt, **kw):
+        old = stp.state
+        r = take(dt, **kw)
+        if r.success:
+            steps.append((old, dt, stp.state, r))
+        return r
+
+    stp.step = step
+    while not e.is_done():
+        e.step()
+    q = 300 / 60000 / stp.segment.height
+    pairs = []
+    for old, dt, new, r in steps:
+        m = stp.segment.step(old.segment, dt, inflow=q,
+                             well=WellLoad(storage=stp.well.c_w), continuation=True)
+        pairs.append((old, dt, new, r, m))
+    return mono, e, pairs
+
+
+@pytest.fixture(scope="module")
+def wfc_breakdown():
+    """WFC on the same scene, pumped until 0.92 s (the controller's segment breaks down
+    later than the monolithic model's, see the test)."""
+    sc = scene_from_dict(_breakdown_dict(coupling="wfc", schedule={"phase": [
+        {"kind": "pump", "rate": "300 l/min", "volume": "0.0046 m3"}]}))
+    return _run(make_engine(sc))
+
+
+def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
+    mono, wfd, pairs = breakdown
+    for e in (mono, wfd):
+        r = e.rows()
+        k = int(np.argmax(r["bottomhole_pressure"]))
+        # FBP ~40.6 MPa, then the well pressure falls while clusters fail (measured: to
+        # 36.1 MPa, 21 clusters, monolithic; 39.1 MPa, 12 clusters, WFD: the crack run is
+        # step-size dependent, so the two are compared step by step below)
+        assert 40.0e6 < r["bottomhole_pressure"][k] < 41.0e6
+        assert r["bottomhole_pressure"][-1] < r["bottomhole_pressure"][k] - 1e6
+        assert r["failed_clusters"][-1] >= 10
+
+
+def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
+    mono, wfd, pairs = breakdown
+    n_same = 0
+    for old, dt, new, r, m in pairs:
+        start = abs(old.well_pressure - old.segment_pressure)
+        dp = abs(new.well_pressure - m.pressure)
+        if r.new_failures == 0 and np.array_equal(m.state.coupled.cluster_state,
+                                                   new.cluster_state):
+            # the WFD step solves the monolithic equations except that the well starts
+            # at p_w, not p_s, and the BHP is matched to TOL: so the two end pressures
+            # differ by at most the start mismatch plus TOL p (10 Pa: Newton tolerance)
+            assert dp <= start + TOL * m.pressure + 10.0, (old.t, dp, start)
+            n_same += 1
+        else:
+            # a step in which clusters fail: the segment decides its failures under the
+            # prescribed inflow, the monolithic step under the well's storage, so the
+            # failure rounds (and the contact references they set) can differ. Measured:
+            # the failed counts agree in all but the breakdown step (5 vs 6 clusters,
+            # 0.49 MPa); elsewhere up to 7.8 kPa.
+            assert abs(m.state.coupled.n_failed - new.n_failed) <= 1
+            assert dp < 1e6
+    assert n_same >= 0.6 * len(pairs)         # measured 20 of 24
+    # pressurisation: the same BHP as the monolithic run to TOL (both runs' rows before
+    # the first failure; linear interpolation of the monolithic run costs < 1 Pa)
+    rm, rw = mono.rows(), wfd.rows()
+    t_f = rm["t"][rm["failed_clusters"] == 0][-1]
+    sel = (rw["t"] <= t_f) & (rw["failed_clusters"] == 0)
+    dp = rw["bottomhole_pressure"][sel] - np.interp(rw["t"][sel], rm["t"],
+                                                    rm["bottomhole_pressure"])
+    assert np.max(np.abs(dp)) <= TOL * 41e6
+    # and the FBP to a few kPa (each is sampled at its run's last step before the drop;
+    # measured 2.1 kPa apart)
+    assert rw["bottomhole_pressure"].max() == pytest.approx(rm["bottomhole_pressure"].max(),
+                                                            abs=10e3)
+
+
+def test_wfd_matches_to_its_tolerance_every_step(breakdown):
+    mono, wfd, pairs = breakdown
+    r = wfd.rows()
+    rel = np.abs(r["well_pressure"] - r["segment_pressure"]) / r["segment_pressure"]
+    # Eq. 4.17a; measured max 178 Pa (4.4e-6). With the looser default (9e-4) or at a
+    # step where the segment's response to the inflow jumps (a failure round), WFD keeps
+    # its least-error iterate instead (docs/coupling.md)
+    assert rel.max() <= TOL * (1 + 1e-6)
+    c = wfd.stepper.coupling
+    assert c.segment_calls > 2 * c.steps          # iterations cost calls (measured 3.8)
+
+
+def test_wfc_lags_at_breakdown(breakdown, wfc_breakdown):
+    mono, wfd, pairs = breakdown
+    r = wfc_breakdown.rows()
+    mis = r["well_pressure"] - r["segment_pressure"]
+    first = int(np.argmax(r["failed_clusters"] > 0))
+    assert first > 0
+    # the segment has broken down, the well keeps pressurising: the controller moves the
+    # well's fluid only as the error accumulates (thesis 4.5.3). Measured: the well at
+    # 41.09 MPa at the end, 1.41 MPa above the segment, against the monolithic run's fall
+    # to 36.1 MPa within 20 ms of its FBP
+    assert r["well_pressure"][-1] > r["well_pressure"][first]
+    assert r["well_pressure"][-1] > mono.rows()["bottomhole_pressure"].max()
+    assert np.max(np.abs(mis[first:])) > 1e6
+    rw = wfd.rows()
+    assert np.max(np.abs(mis)) > 100 * np.max(np.abs(rw["well_pressure"]
+                                                      - rw["segment_pressure"]))
+    assert wfc_breakdown.stepper.coupling.segment_calls == (
+        wfc_breakdown.stepper.coupling.steps)      # no iterations
+
+
+def test_balance_through_breakdown(breakdown, wfc_breakdown):
+    mono, wfd, pairs = breakdown
+    for e in (mono, wfd, wfc_breakdown):
+        r = e.rows()
+        assert np.all(r["mass_balance_error"][1:] <= 1e-8)
+    for e in (wfd, wfc_breakdown):
+        stp = e.stepper
+        st, h = stp.state, stp.segment.height
+        well = stp.well.store(stp.well.c_w, st.well_pressure, e.pw0) * h
+        pumped = e.rows()["pumped_volume"][-1]
+        # the well side closes to round-off (1e-12 of the pumped volume is ~1e-17 m^3)
+        assert pumped == pytest.approx(well + st.segment.injected * h, rel=1e-12)
+        # the segment's own balance, summed over the accepted steps of the stepper
+        acc = [x for x in stp.history if x.success]
+        err = sum(x.mass_balance_error for x in acc)
+        assert abs(err) <= 1e-8 * sum(abs(x.injected_mass) for x in acc)
