@@ -2,8 +2,11 @@ r"""Well–segment coupling strategies on a unit-height open-hole segment (SPEC 
 
 The 2D simulator models a slab of the open hole of **unit height**; the real test is run in a
 well whose fluid volume is hundreds of times larger. This module couples the two in four
-selectable ways, on a lumped stand-in for the 2D segment, so that their cost and error can be
-compared on one scene:
+selectable ways, behind a :class:`SegmentModel` protocol: on a lumped stand-in for the 2D
+segment here (:class:`LumpedUnitSegment`, :func:`run_well_coupling`), and on the 2D coupled
+model itself in :mod:`xlotkit.sim.coupling.segment` /
+:mod:`xlotkit.sim.coupling.partitioned` (the same steppers through
+:func:`well_coupled_step`, with the 2D engine's adaptive steps):
 
 ``monolithic``
     The well is storage on the wall pressure ``p_w`` inside the segment's implicit step: one
@@ -24,7 +27,8 @@ compared on one scene:
     large (App. B.5).
 
 Results of all four on the standard scene: docs/well-coupling.md
-(``benchmarks/bench_wellcoupling.py``).
+(``benchmarks/bench_wellcoupling.py``); on the 2D segment: docs/coupling.md, "Well coupling
+on the 2D segment" (``benchmarks/bench_wellcoupling2d.py``).
 
 SI units, gauge pressures. Everything the segment exchanges with the well is **per unit height**
 of open hole (m^3/s per m, m^3/Pa per m); the driver scales with the effective height ``H``.
@@ -208,10 +212,13 @@ class WellLoad:
 class SegmentModel(Protocol):
     """The open-hole segment of unit height as a black box for the well coupling.
 
-    A 2D MDEM–flow segment implements this by solving its own implicit step with the given
-    boundary condition on the borehole: a prescribed volume rate into the borehole, or a
-    prescribed borehole pressure, or (``monolithic``) a rate into a borehole that carries the
-    well's storage and outflow as an extra term on ``p_w``.
+    A segment solves its own implicit step with the given boundary condition on the
+    borehole: a prescribed volume rate into the borehole, or a prescribed borehole pressure,
+    or (``monolithic``) a rate into a borehole that carries the well's storage and outflow
+    as an extra term on ``p_w``. Implementations: :class:`LumpedUnitSegment` and the 2D
+    coupled model, :class:`xlotkit.sim.coupling.segment.CoupledSegment`. A step that does
+    not converge raises :class:`SegmentStepFailed` (nothing changed; a shorter step may
+    succeed); a boundary condition without a solution raises :class:`SegmentError`.
     """
 
     @property
@@ -1186,8 +1193,8 @@ def _step_wfd(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt: f
     move against the sign of ``e`` is replaced by an expanding step in the right direction
     (the thesis module's larger update factors while the error keeps its sign); once two
     iterates bracket the root, Illinois false position takes over (where the thesis module
-    shrinks its update factor after a change of sign). After ``wfd_max_iterations`` segment solves the iterate with the least
-    |e| is kept (the thesis reloads that one). Converged when ``|eps_BHP|`` (Eq. 4.17a) is
+    shrinks its update factor after a change of sign). After ``wfd_max_iterations``
+    segment solves the iterate with the least |e| is kept (the thesis reloads that one). Converged when ``|eps_BHP|`` (Eq. 4.17a) is
     within ``wfd_tolerance`` and, on the first iteration only, ``|eps_LO|`` (Eq. 4.17b)
     within ``wfd_rate_tolerance`` (Eq. 4.18)."""
     q_scale = max(abs(q_surf), abs(ctl.q_lo), 1e-12)
