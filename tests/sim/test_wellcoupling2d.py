@@ -424,8 +424,9 @@ def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
     for old, dt, new, r, m in pairs:
         start = abs(old.well_pressure - old.segment_pressure)
         dp = abs(new.well_pressure - m.pressure)
-        if r.new_failures == 0 and np.array_equal(m.state.coupled.cluster_state,
-                                                   new.cluster_state):
+        if r.new_failures == 0 and np.array_equal(
+                m.state.coupled.cluster_state, new.cluster_state) and np.array_equal(
+                m.state.coupled.mechanics.contact_status, new.mechanics.contact_status):
             # the WFD step solves the monolithic equations except that the well starts
             # at p_w, not p_s, and ends a mismatch e (<= TOL p) off: subtracting the two
             # balances, (C_w + C_seg) (p_w' - p_mono) = C_w (p_w - p_s) + C_seg e, so
@@ -435,9 +436,11 @@ def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
             assert dp <= start + end + 10.0, (old.t, dp, start, end)
             n_same += 1
         else:
-            # a step in which clusters fail: the segment decides its failures under the
-            # prescribed inflow, the monolithic step under the well's storage, so the
-            # failure rounds (and the contact references they set) can differ. Measured:
+            # a step in which clusters fail (or contacts change status): the segment
+            # decides its failures under the prescribed inflow, the monolithic step under
+            # the well's storage, so the failure rounds (and the contact references they
+            # set) can differ, and a non-smooth contact law can land on another branch
+            # from a start a few Pa away. Measured:
             # the failed counts agree in all but the breakdown step (5 vs 6 clusters,
             # 0.49 MPa); elsewhere up to 7.8 kPa.
             assert abs(m.state.coupled.n_failed - new.n_failed) <= 1
