@@ -284,3 +284,29 @@ def test_bad_input():
         standard_well_coupling_scene(effective_height=1e4)
     with pytest.raises(InputError):
         Flowback(initial_rate=1.0)  # no end condition
+
+
+def test_a_failing_segment_step_is_reported_not_raised(pump_scene):
+    """A segment step that does not converge (SegmentStepFailed, e.g. the 2D segment's
+    Newton) ends the fixed-step run with status "failed" and what was computed so far."""
+    from xlotkit.sim.wellcoupling import SegmentStepFailed
+
+    class Flaky:
+        def __init__(self, seg, n_ok):
+            self.seg, self.n_ok, self.calls = seg, n_ok, 0
+            self.storage = seg.storage
+
+        def initial_state(self, p):
+            return self.seg.initial_state(p)
+
+        def step(self, s, dt, **kw):
+            self.calls += 1
+            if self.calls > self.n_ok:
+                raise SegmentStepFailed("newton: stalled")
+            return self.seg.step(s, dt, **kw)
+
+    for strategy in ("monolithic", "wfd", "wfc"):
+        r = run_well_coupling(pump_scene, strategy, segment=Flaky(pump_scene.segment(), 5))
+        assert r.status == "failed" and "newton: stalled" in r.message
+        assert r.phases[-1]["end"] == "failed"
+        assert r.segment_calls <= 5 and r.t.size == r.n_steps + 1 >= 2

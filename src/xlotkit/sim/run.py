@@ -42,7 +42,9 @@ A simulator is driven one step at a time through :class:`Engine`:
 Engines are made by factories ``factory(scene) -> Engine`` registered per model name in
 :data:`ENGINES` (:func:`register_engine`). ``lumped`` is built in
 (:class:`xlotkit.sim.lumped.LumpedEngine`), and so is ``mdem``
-(:class:`xlotkit.sim.coupling.engine.MDEMEngine`, the 2D coupled model). A model without a
+(:class:`xlotkit.sim.coupling.engine.MDEMEngine`, the 2D coupled model; a scene with
+``coupling = "wfd" | "wfc" | "wfdmod"`` gets
+:class:`xlotkit.sim.coupling.partitioned.PartitionedMDEMEngine`). A model without a
 registered engine raises :class:`EngineNotAvailable`.
 
 Driver
@@ -160,6 +162,12 @@ def _lumped_factory(scene: Scene) -> Engine:
 
 
 def _mdem_factory(scene: Scene) -> Engine:
+    # the well coupling is chosen per scene: the well as storage on p_w (MDEMEngine), or
+    # the thesis's partitioned schemes around the same engine
+    if scene.coupling != "monolithic":
+        from xlotkit.sim.coupling.partitioned import PartitionedMDEMEngine
+
+        return PartitionedMDEMEngine(scene)
     from xlotkit.sim.coupling.engine import MDEMEngine
 
     return MDEMEngine(scene)

@@ -6,7 +6,7 @@ without a unit are SI; strings may carry field units: ``"2000 m"``, ``"10 l/min"
 
     title = "..."                 # free text
     model = "auto"                # auto | lumped | mdem
-    coupling = "monolithic"       # monolithic | wfd | wfc (2D model only)
+    coupling = "monolithic"       # monolithic | wfd | wfc | wfdmod (2D model only)
     seed = 0                      # master seed (mesh jitter, heterogeneity, gauge noise)
     [geometry]    domain_size, hole_radius, segment_height
     [mesh]        growth, wall_element_size, max_element_size, fracture_band, band_width,
@@ -27,6 +27,8 @@ without a unit are SI; strings may carry field units: ``"2000 m"``, ``"10 l/min"
     [output]      log_interval, noise, resolution, seed, snapshot_interval, start_time
     [lumped]      fracture_geometry, toughness, initial_flaw, reopening, nwb_coefficient,
                   leakoff_coefficient, wall_leak_index
+    [well_coupling] tolerance, rate_tolerance, max_iterations, calibration, wfc_gain,
+                  wfc_damping, wfdmod_gain, wfdmod_damping (coupling = wfd | wfc | wfdmod)
 
 Every key, its unit, default and allowed range is listed in :data:`SCENE_KEYS` (and in
 ``docs/simulate.md``, generated from it by :func:`scene_reference_markdown`).
@@ -39,7 +41,10 @@ for physics only the 2D hydro-mechanical (MDEM) model has: a ``[mesh]`` section,
 ``effects.shear_dilation``, interface planes, or a ``coupling`` other than
 ``"monolithic"`` (the thesis's WFD/WFC schemes couple the 2D model to the well).
 :attr:`Scene.two_d_reasons` lists what was found; ``model = "lumped"`` with any of them is
-an error naming the key.
+an error naming the key. A partitioned ``coupling`` (``wfd``, ``wfc``, ``wfdmod``) also needs
+a well to couple the open hole to: ``effects.well_storage`` on and a whole-well compliance
+above the open hole's own ``c_f pi r^2 h`` (else an error naming the key); its tolerances,
+gains and damping are in ``[well_coupling]`` (ignored by ``monolithic``).
 
 Lumped parameters derived from the rock
 ---------------------------------------
@@ -78,7 +83,8 @@ from xlotkit.sim.lumped import (
     wall_leak_index,
 )
 from xlotkit.sim.schedule import Schedule
-from xlotkit.sim.well import WATER_COMPRESSIBILITY, Completion, INCH
+from xlotkit.sim.well import WATER_COMPRESSIBILITY, Completion, INCH, well_compliance
+from xlotkit.sim.wellcoupling import CouplingOptions
 
 __all__ = [
     "SCENE_KEYS",
@@ -94,6 +100,7 @@ __all__ = [
     "Rock",
     "Scene",
     "Stresses",
+    "WellCouplingOptions",
     "carter_coefficient",
     "load_scene",
     "scene_from_dict",
@@ -101,7 +108,10 @@ __all__ = [
 ]
 
 Model = Literal["auto", "lumped", "mdem"]
-Coupling = Literal["monolithic", "wfd", "wfc"]
+Coupling = Literal["monolithic", "wfd", "wfc", "wfdmod"]
+#: Couplings of the well to the 2D segment that are partitioned (thesis 4.5).
+PARTITIONED_COUPLINGS = ("wfd", "wfc", "wfdmod")
+_WC = CouplingOptions()
 
 
 # =========================================================================== key specs
@@ -186,8 +196,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "model": _k("choice", choices=("auto", "lumped", "mdem"),
                     doc="simulator: lumped (well + analytic fracture) or mdem (2D); auto "
                         "picks lumped unless 2D physics is asked for"),
-        "coupling": _k("choice", choices=("monolithic", "wfd", "wfc"),
-                       doc="well-formation coupling of the 2D model (SPEC §5)"),
+        "coupling": _k("choice", choices=("monolithic", "wfd", "wfc", "wfdmod"),
+                       doc="well-formation coupling of the 2D model (SPEC §5): the well as "
+                           "storage on p_w, or the thesis's WFD / WFC / WFDmod schemes "
+                           "(docs/well-coupling.md)"),
         "seed": _k("int", "", 0, 2**63 - 1,
                    doc="master seed: mesh jitter, heterogeneity and gauge noise unless "
                        "their sections set their own"),
@@ -336,6 +348,27 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                                   doc="Carter C_L (default: from rock and fluid, see docs)"),
         "wall_leak_index": _k("m**3/s/Pa", "m^3/(s Pa)", 0.0, 1e-6, optional=True,
                               doc="open-hole wall leak J (default: from the permeability)"),
+    },
+    "well_coupling": {
+        "tolerance": _k("dimensionless", "", 0.0, 1.0, lo_open=True,
+                        doc="wfd, wfdmod: relative BHP mismatch accepted per step "
+                            "(eps_BHP,max, thesis Eq. 4.17a/4.18)"),
+        "rate_tolerance": _k("dimensionless", "", 0.0, 10.0, lo_open=True,
+                             doc="wfd: relative loss-rate change accepted on a step's first "
+                                 "iteration (Eq. 4.17b)"),
+        "max_iterations": _k("int", "", 1, 1000,
+                             doc="wfd: segment calls per step before the least-mismatch one "
+                                 "is kept"),
+        "calibration": _k("dimensionless", "", 0.0, 10.0, lo_open=True,
+                          doc="wfd: damping of the first update of the loss-rate guess"),
+        "wfc_gain": _k("dimensionless", "", 0.0, 10.0,
+                       doc="wfc: gain G on the BHP mismatch, per step (Eq. 4.19)"),
+        "wfc_damping": _k("dimensionless", "", 0.0, 1.0, hi_open=True,
+                          doc="wfc: damping gamma (Eq. 4.22)"),
+        "wfdmod_gain": _k("dimensionless", "", 0.0, 10.0,
+                          doc="wfdmod: gain after pumping (Eq. 4.23)"),
+        "wfdmod_damping": _k("dimensionless", "", 0.0, 1.0, hi_open=True,
+                             doc="wfdmod: damping after pumping (Eq. 4.23)"),
     },
 }
 
@@ -738,10 +771,39 @@ class LumpedOptions:
         _validate(self, self.section)
 
 
+@dataclass(frozen=True, kw_only=True)
+class WellCouplingOptions:
+    """``[well_coupling]``: tolerances, gains and damping of the partitioned couplings
+    (``coupling = "wfd" | "wfc" | "wfdmod"``; :class:`xlotkit.sim.wellcoupling.
+    CouplingOptions`, docs/well-coupling.md). Ignored by ``monolithic``."""
+
+    section: ClassVar[str] = "well_coupling"
+    tolerance: float = _WC.wfd_tolerance
+    rate_tolerance: float = _WC.wfd_rate_tolerance
+    max_iterations: int = _WC.wfd_max_iterations
+    calibration: float = _WC.wfd_calibration
+    wfc_gain: float = _WC.wfc_gain
+    wfc_damping: float = _WC.wfc_damping
+    wfdmod_gain: float = _WC.wfdmod_gain
+    wfdmod_damping: float = _WC.wfdmod_damping
+
+    def __post_init__(self) -> None:
+        _validate(self, self.section)
+
+    def options(self) -> CouplingOptions:
+        """The :class:`~xlotkit.sim.wellcoupling.CouplingOptions` of this section."""
+        return CouplingOptions(
+            wfd_tolerance=self.tolerance, wfd_rate_tolerance=self.rate_tolerance,
+            wfd_max_iterations=self.max_iterations, wfd_calibration=self.calibration,
+            wfc_gain=self.wfc_gain, wfc_damping=self.wfc_damping,
+            wfdmod_gain=self.wfdmod_gain, wfdmod_damping=self.wfdmod_damping)
+
+
 _SECTION_TYPES: dict[str, type] = {
     "geometry": Geometry, "mesh": MeshOptions, "rock": Rock, "stresses": Stresses,
     "fluid": Fluid, "completion": CompletionOptions, "numerics": Numerics,
     "effects": Effects, "output": OutputOptions, "lumped": LumpedOptions,
+    "well_coupling": WellCouplingOptions,
 }
 
 
@@ -784,10 +846,11 @@ class Scene:
     ----------
     schedule : Schedule
         The test program.
-    geometry, mesh, rock, stresses, fluid, completion, numerics, effects, output, lumped
+    geometry, mesh, rock, stresses, fluid, completion, numerics, effects, output, lumped,
+        well_coupling
         The sections (defaults where a section is absent).
     model : {"auto", "lumped", "mdem"}
-    coupling : {"monolithic", "wfd", "wfc"}
+    coupling : {"monolithic", "wfd", "wfc", "wfdmod"}
     seed : int
         Master seed.
     title : str
@@ -810,6 +873,7 @@ class Scene:
     effects: Effects = field(default_factory=Effects)
     output: OutputOptions = field(default_factory=OutputOptions)
     lumped: LumpedOptions = field(default_factory=LumpedOptions)
+    well_coupling: WellCouplingOptions = field(default_factory=WellCouplingOptions)
     model: Model = "auto"
     coupling: Coupling = "monolithic"
     seed: int = 0
@@ -833,6 +897,8 @@ class Scene:
             key = self.two_d_reasons[0]
             raise InputError(f"model = 'lumped' cannot simulate {key}", key=key,
                              expected="model = 'mdem' or 'auto', or drop " + key)
+        if self.coupling in PARTITIONED_COUPLINGS:
+            self._check_partitioned()
         if self.resolved_model == "lumped":
             # fail now, not mid-run, on values only the lumped model rejects
             try:
@@ -840,6 +906,28 @@ class Scene:
             except InputError as exc:
                 raise InputError(exc.message, key=_LUMPED_KEYS.get(exc.key or "", exc.key),
                                  expected=exc.expected) from None
+
+    def _check_partitioned(self) -> None:
+        """A partitioned coupling needs a well beyond the open hole to couple it to."""
+        c = self.coupling
+        if not self.effects.well_storage:
+            raise InputError(f"coupling = {c!r} couples the open hole to the rest of the "
+                             "well, but effects.well_storage is false",
+                             key="effects.well_storage",
+                             expected="true, or coupling = 'monolithic'")
+        g = self.geometry
+        own = math.pi * g.hole_radius**2 * g.segment_height * self.fluid.compressibility
+        given = self.completion.well_compliance
+        total = (float(given) if given is not None
+                 else well_compliance(self.completion_model()))
+        if not total > own * (1.0 + 1e-9):
+            key = ("completion.well_compliance" if given is not None
+                   else "fluid.compressibility")
+            raise InputError(
+                f"coupling = {c!r}: the well's compliance {total:.4g} m^3/Pa is not above "
+                f"the open hole's own {own:.4g} m^3/Pa (no well storage to couple)",
+                key=key, expected="a whole-well compliance above c_f pi r^2 h, or "
+                                  "coupling = 'monolithic'")
 
     # ------------------------------------------------------------------ model choice
     @property

@@ -2,8 +2,11 @@ r"""Well–segment coupling strategies on a unit-height open-hole segment (SPEC 
 
 The 2D simulator models a slab of the open hole of **unit height**; the real test is run in a
 well whose fluid volume is hundreds of times larger. This module couples the two in four
-selectable ways, on a lumped stand-in for the 2D segment, so that their cost and error can be
-compared on one scene:
+selectable ways, behind a :class:`SegmentModel` protocol: on a lumped stand-in for the 2D
+segment here (:class:`LumpedUnitSegment`, :func:`run_well_coupling`), and on the 2D coupled
+model itself in :mod:`xlotkit.sim.coupling.segment` /
+:mod:`xlotkit.sim.coupling.partitioned` (the same steppers through
+:func:`well_coupled_step`, with the 2D engine's adaptive steps):
 
 ``monolithic``
     The well is storage on the wall pressure ``p_w`` inside the segment's implicit step: one
@@ -24,7 +27,8 @@ compared on one scene:
     large (App. B.5).
 
 Results of all four on the standard scene: docs/well-coupling.md
-(``benchmarks/bench_wellcoupling.py``).
+(``benchmarks/bench_wellcoupling.py``); on the 2D segment: docs/coupling.md, "Well coupling
+on the 2D segment" (``benchmarks/bench_wellcoupling2d.py``).
 
 SI units, gauge pressures. Everything the segment exchanges with the well is **per unit height**
 of open hole (m^3/s per m, m^3/Pa per m); the driver scales with the effective height ``H``.
@@ -81,7 +85,7 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import brentq
 
-from xlotkit.errors import InputError
+from xlotkit.errors import InputError, XlotkitError
 from xlotkit.sim.lumped import breakdown_pressure, wall_leak_index
 from xlotkit.sim.schedule import Bleed, Flowback, Pump, Schedule, ShutIn
 from xlotkit.sim.well import (
@@ -97,18 +101,23 @@ from xlotkit.sim.well import (
 
 __all__ = [
     "STRATEGIES",
+    "ControllerMemory",
     "CouplingOptions",
-    "SegmentError",
     "LumpedUnitSegment",
+    "SegmentError",
     "SegmentModel",
     "SegmentState",
     "SegmentStep",
+    "SegmentStepFailed",
     "Strategy",
+    "WellCoupledStep",
     "WellCouplingResult",
     "WellCouplingScene",
     "WellLoad",
+    "WellSide",
     "run_well_coupling",
     "standard_well_coupling_scene",
+    "well_coupled_step",
 ]
 
 Strategy = Literal["monolithic", "wfd", "wfc", "wfdmod"]
@@ -168,7 +177,10 @@ class SegmentStep:
         Residual evaluations / linear solves the step cost (the segment's work unit).
     compliance : float
         Pump-in compliance at the new state at fixed fracture size (thesis Eq. 4.11 analogue),
-        ``c_s + dV_f/dp + dt dq_L/dp`` [m^3/Pa per m]; used by the controllers to scale gains.
+        ``c_s + dV_f/dp + dt dq_L/dp`` [m^3/Pa per m]; used by the controllers to scale
+        gains when the secant ``volume / dp`` of the step is not usable. NaN when the
+        segment computes it only on demand: then a subclass offers ``tangent()``
+        (:class:`xlotkit.sim.coupling.segment.CoupledSegmentStep`).
     """
 
     state: SegmentState
@@ -200,10 +212,13 @@ class WellLoad:
 class SegmentModel(Protocol):
     """The open-hole segment of unit height as a black box for the well coupling.
 
-    A 2D MDEM–flow segment implements this by solving its own implicit step with the given
-    boundary condition on the borehole: a prescribed volume rate into the borehole, or a
-    prescribed borehole pressure, or (``monolithic``) a rate into a borehole that carries the
-    well's storage and outflow as an extra term on ``p_w``.
+    A segment solves its own implicit step with the given boundary condition on the
+    borehole: a prescribed volume rate into the borehole, or a prescribed borehole pressure,
+    or (``monolithic``) a rate into a borehole that carries the well's storage and outflow
+    as an extra term on ``p_w``. Implementations: :class:`LumpedUnitSegment` and the 2D
+    coupled model, :class:`xlotkit.sim.coupling.segment.CoupledSegment`. A step that does
+    not converge raises :class:`SegmentStepFailed` (nothing changed; a shorter step may
+    succeed); a boundary condition without a solution raises :class:`SegmentError`.
     """
 
     @property
@@ -224,6 +239,25 @@ class SegmentModel(Protocol):
 # =========================================================================== lumped segment
 class SegmentError(InputError):
     """A segment step that has no solution under the given boundary condition."""
+
+
+class SegmentStepFailed(XlotkitError):
+    """A segment step that did not converge (2D: Newton, too many cluster failures in the
+    step, mass balance); the state is unchanged and a shorter step may succeed.
+
+    Parameters
+    ----------
+    reason : str
+        Why (the coupled stepper's ``StepResult.reason``).
+    detail : object, optional
+        The segment's own record of the failed attempt (2D: the ``StepResult`` and the
+        work counters), kept for the caller's statistics.
+    """
+
+    def __init__(self, reason: str, detail: Any = None) -> None:
+        super().__init__(f"segment step failed: {reason}")
+        self.reason = reason
+        self.detail = detail
 
 
 @dataclass(frozen=True)
@@ -670,7 +704,9 @@ class WellCouplingResult:
     Attributes
     ----------
     strategy, status, message : str
-        ``status`` is ``"ok"`` or ``"stopped"`` (a phase hit ``max_phase_duration``).
+        ``status`` is ``"ok"``, ``"stopped"`` (a phase hit ``max_phase_duration``) or
+        ``"failed"`` (a segment step raised :class:`SegmentStepFailed`; this driver's
+        fixed step cannot be cut, so the run ends there).
     t : ndarray
         Time [s].
     well_pressure, segment_pressure, surface_pressure : ndarray
@@ -798,6 +834,12 @@ class _Well:
             return lambda p: self.return_rate(p) / self.H
         return None
 
+    def seg_store(self, p_new: float, p_old: float) -> float:
+        """Fluid the segment's own borehole storage takes from ``p_old`` to ``p_new``
+        [m^3 per m]: ``c_s (p_new - p_old)`` (the well side of the 2D segment uses the
+        fluid's exponential density instead, :mod:`xlotkit.sim.coupling.partitioned`)."""
+        return self.c_s * (p_new - p_old)
+
     def surface(self, p: float, q_pump: float) -> float:
         if isinstance(self.phase, Flowback):
             return choke_surface_pressure(p, self.zeta, self.col)[0]
@@ -839,11 +881,134 @@ class _Ctl:
         tangent of the open fracture would overshoot by ~C_f / c_s."""
         dp = r.pressure - s.pressure
         c = r.volume / dp if abs(dp) > 1.0 else math.nan
-        self.c_seg = c if (math.isfinite(c) and c > 0.0) else r.compliance
+        if not (math.isfinite(c) and c > 0.0):
+            c = r.compliance
+            if not (math.isfinite(c) and c > 0.0):
+                # a segment whose tangent costs a solve (2D) gives it on demand only
+                tangent = getattr(r, "tangent", None)
+                c = tangent() if tangent is not None else math.nan
+        if math.isfinite(c) and c > 0.0:
+            self.c_seg = c
 
 
 def _c_eff(c_w: float, c_seg: float) -> float:
     return c_w * c_seg / (c_w + c_seg)
+
+
+# =========================================================================== one step, public
+@dataclass(frozen=True)
+class ControllerMemory:
+    """What the partitioned schemes carry from one step to the next (per unit height).
+
+    Attributes
+    ----------
+    loss_rate : float
+        ``Q_LO`` of the last step [m^3/s per m] (WFD's first guess, WFDmod's trend).
+    segment_rate : float or None
+        WFC: the last rate into the segment ``Q_T2`` [m^3/s per m]; None before the first
+        step (the base rate of Eq. 4.9/4.10 is used then).
+    segment_compliance : float
+        ``c_seg`` calibrated from the last step (Eq. 4.11) [m^3/Pa per m], which scales
+        the gains.
+    """
+
+    loss_rate: float = 0.0
+    segment_rate: float | None = None
+    segment_compliance: float = 0.0
+
+
+@dataclass(frozen=True)
+class WellCoupledStep:
+    """Outcome of :func:`well_coupled_step` (per unit height).
+
+    Attributes
+    ----------
+    well_pressure : float
+        The well's BHP at the end of the step [Pa].
+    state : object
+        The segment's state at the end of the step (the kept iterate for WFD).
+    volume : float
+        Volume the well sent into the segment over the step [m^3 per m].
+    calls, solves : int
+        Segment calls and their residual evaluations / linear solves.
+    memory : ControllerMemory
+        Controller memory for the next step.
+    """
+
+    well_pressure: float
+    state: Any
+    volume: float
+    calls: int
+    solves: int
+    memory: ControllerMemory
+
+
+@runtime_checkable
+class WellSide(Protocol):
+    """The well of a partitioned coupling, per unit height of the segment.
+
+    ``c_w`` [m^3/Pa per m] is the well's storage without the segment, ``c_s`` the
+    segment's own borehole storage and ``c_tot = c_w + c_s``; :meth:`advance` is the
+    well's implicit storage equation, :meth:`seg_store` the volume the segment's own
+    borehole fluid takes between two pressures, :meth:`outflow` the surface returns as a
+    function of the BHP (None while pumping or shut in).
+    """
+
+    c_w: float
+    c_s: float
+    c_tot: float
+
+    def advance(self, p_w: float, dt: float, q_surf: float, q_seg: float,
+                extra_storage: float = 0.0, p_extra: float = 0.0) -> float: ...
+
+    def seg_store(self, p_new: float, p_old: float) -> float: ...
+
+    def outflow(self) -> Callable[[float], float] | None: ...
+
+
+def well_coupled_step(strategy: Strategy, well: WellSide, segment: SegmentModel, state: Any,
+                      p_w: float, dt: float, q_surf: float, memory: ControllerMemory,
+                      options: CouplingOptions, pumping: bool) -> WellCoupledStep:
+    """One step of the well coupled to a segment by ``strategy`` (the steppers behind
+    :func:`run_well_coupling`, for drivers with their own time stepping).
+
+    Parameters
+    ----------
+    strategy : {"monolithic", "wfd", "wfc", "wfdmod"}
+    well : WellSide
+    segment : SegmentModel
+    state : SegmentState-like
+        The segment's state at the start of the step.
+    p_w : float
+        The well's BHP at the start of the step [Pa].
+    dt : float
+        Step [s].
+    q_surf : float
+        Surface pump rate per unit height [m^3/s per m] (returns are ``well.outflow()``).
+    memory : ControllerMemory
+    options : CouplingOptions
+    pumping : bool
+        The phase is a pump phase (WFDmod iterates only then).
+
+    Returns
+    -------
+    WellCoupledStep
+
+    Raises
+    ------
+    SegmentStepFailed
+        From a segment call that did not converge; nothing has changed (the memory is
+        the caller's, the states are immutable): the caller may retry with a shorter step.
+    """
+    if strategy not in STRATEGIES:
+        raise InputError(f"unknown coupling strategy {strategy!r}", key="strategy",
+                         expected=", ".join(STRATEGIES))
+    ctl = _Ctl(q_lo=memory.loss_rate, q_t2=memory.segment_rate,
+               c_seg=memory.segment_compliance)
+    p_new, s_new, vol, calls, solves = _STEPPERS[strategy](
+        well, segment, state, p_w, dt, q_surf, ctl, options, pumping)
+    return WellCoupledStep(p_new, s_new, vol, calls, solves,
+                           ControllerMemory(ctl.q_lo, ctl.q_t2, ctl.c_seg))
 
 
 def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None,
@@ -932,8 +1097,16 @@ def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None
                 end = "duration" if tau >= limit - 1e-9 else "volume"
                 break
             q_surf = q_pump / H
-            p_w, s, q_seg_vol, it, sol = _STEPPERS[strategy](
-                well, seg, s, p_w, dt, q_surf, ctl, opt, isinstance(phase, Pump))
+            try:
+                p_w, s, q_seg_vol, it, sol = _STEPPERS[strategy](
+                    well, seg, s, p_w, dt, q_surf, ctl, opt, isinstance(phase, Pump))
+            except SegmentStepFailed as exc:
+                # fixed steps: nothing to cut; report it and keep what was computed
+                status = "failed"
+                msg = (f"{strategy}: segment step of {dt:g} s at t = {t:g} s in phase "
+                       f"{phase.label!r} (cycle {cycle}) failed: {exc.reason}")
+                end = "failed"
+                break
             q_ret = well.return_rate(p_w)
             t += dt
             v_in += q_pump * dt
@@ -998,7 +1171,7 @@ def _wfd_predict(well: _Well, s: SegmentState, p_w: float, dt: float, q_surf: fl
     """Eq. 4.12 and 4.16: predicted BHP with loss guess ``q_lo`` and the rate into the
     segment that compresses its fluid by the same amount."""
     p_star = well.advance(p_w, dt, q_surf, q_lo, extra_storage=well.c_s, p_extra=s.pressure)
-    q_t2 = q_lo + well.c_s * (p_star - s.pressure) / dt
+    q_t2 = q_lo + well.seg_store(p_star, s.pressure) / dt
     return p_star, q_t2
 
 
@@ -1020,8 +1193,8 @@ def _step_wfd(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt: f
     move against the sign of ``e`` is replaced by an expanding step in the right direction
     (the thesis module's larger update factors while the error keeps its sign); once two
     iterates bracket the root, Illinois false position takes over (where the thesis module
-    shrinks its update factor after a change of sign). After ``wfd_max_iterations`` segment solves the iterate with the least
-    |e| is kept (the thesis reloads that one). Converged when ``|eps_BHP|`` (Eq. 4.17a) is
+    shrinks its update factor after a change of sign). After ``wfd_max_iterations``
+    segment solves the iterate with the least |e| is kept (the thesis reloads that one). Converged when ``|eps_BHP|`` (Eq. 4.17a) is
     within ``wfd_tolerance`` and, on the first iteration only, ``|eps_LO|`` (Eq. 4.17b)
     within ``wfd_rate_tolerance`` (Eq. 4.18)."""
     q_scale = max(abs(q_surf), abs(ctl.q_lo), 1e-12)
@@ -1037,7 +1210,7 @@ def _step_wfd(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt: f
         r = seg.step(s, dt, inflow=q_t2)
         n_calls += 1
         solves += r.solves
-        q_act = q_t2 - well.c_s * (r.pressure - s.pressure) / dt
+        q_act = q_t2 - well.seg_store(r.pressure, s.pressure) / dt
         err = p_star - r.pressure
         if best is None or abs(err) < abs(best[0]):
             best = (err, r, p_star)
@@ -1073,7 +1246,7 @@ def _step_wfd(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt: f
         q = q_new
     assert best is not None
     _, r, p_star = best
-    ctl.q_lo = (r.volume - well.c_s * (r.pressure - s.pressure)) / dt
+    ctl.q_lo = (r.volume - well.seg_store(r.pressure, s.pressure)) / dt
     ctl.report(s, r)
     return p_star, r.state, r.volume, n_calls, solves
 
@@ -1131,7 +1304,7 @@ def _step_wfdmod(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt
     r = seg.step(s, dt, inflow=q_t2)
     calls, solves = 1, r.solves
     if abs(_rel(p_star, r.pressure, 1.0)) > opt.wfd_tolerance:
-        q_act = q_t2 - well.c_s * (r.pressure - s.pressure) / dt
+        q_act = q_t2 - well.seg_store(r.pressure, s.pressure) / dt
         p2, q2 = _wfd_predict(well, s, p_w, dt, q_surf, q_act)
         r2 = seg.step(s, dt, inflow=q2)
         calls, solves = 2, solves + r2.solves
