@@ -59,7 +59,12 @@ from xlotkit.sim.coupling.model import (
     CoupledState,
     grain_pore_compressibility,
 )
-from xlotkit.sim.coupling.stepper import CoupledControl, CoupledCounters, CoupledStepper
+from xlotkit.sim.coupling.stepper import (
+    CoupledControl,
+    CoupledCounters,
+    CoupledStepper,
+    TimeStepControl,
+)
 from xlotkit.sim.flow import (
     FlowModel,
     FlowState,
@@ -281,6 +286,9 @@ class MDEMEngine:
         self.column = well_column(sc)
         num = sc.numerics
         self.control = CoupledControl(max_newton=int(num.max_newton))
+        self.tsc = TimeStepControl(dt_initial=min(1.0, num.dt_max), dt_min=num.dt_min,
+                                   dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
+                                   dp_max=float(num.dp_max))
         self.rho0 = float(self.cm.flow.fluid.density)
         mesh = self.cm.mesh
         wall = np.zeros(mesh.n_nodes, dtype=bool)
@@ -305,6 +313,7 @@ class MDEMEngine:
         self._v_in = self._v_ret = self._v_out = 0.0
         self._phase_v0 = (0.0, 0.0)
         self._retry: dict[str, Any] | None = None
+        self._running = False      # the last step failed clusters into a falling p_w
         self._rows: dict[str, list[float]] = {k: [] for k in _ROW_KEYS}
         self.phases_out: list[dict[str, Any]] = []
         self.events: list[tuple[float, str]] = []
@@ -507,14 +516,15 @@ class MDEMEngine:
         if self._retry is not None:
             h = min(h, self._retry["h"])
         h_try = min(h, target - t)
+        at_floor = h_try <= num.dt_min * (1.0 + 1e-9)
         if target - t - h_try < num.dt_min:
             h_try = target - t
         h_try = max(h_try, 1e-12)
-        at_floor = h_try <= num.dt_min * (1.0 + 1e-9)
-        # at the floor, a failed solve is retried by continuation in the step length (a
-        # turning point of the step's equations at breakdown, docs/coupling.md)
-        r = stp.step(h_try, max_new_failures=None if at_floor else int(num.n2),
-                     continuation=at_floor)
+        # the stepper's adaptive rules (docs/coupling.md, "Breakdown into a large well
+        # storage"): while the crack runs the failure limit follows its size; at the floor
+        # continuation in the step length, then longer steps over a turning point
+        r, h_try = stp.attempt(h_try, self.tsc, running=self._running, limit=target - t,
+                               at_floor=at_floor)
         if (r.success and not at_floor and r.new_failures == 0
                 and abs(r.dp_w) > float(num.dp_max)):
             # the pressure-change rule bounds the smooth change of p_w per step; a jump at
@@ -523,11 +533,12 @@ class MDEMEngine:
             self._h = max(h_try * 0.5 * float(num.dp_max) / abs(r.dp_w), num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: pressure change")
         if not r.success:
-            if at_floor or h_try <= num.dt_min * (1.0 + 1e-9):
+            if at_floor:
                 raise XlotkitError(
                     f"2D step of {h_try:g} s at t = {t:g} s failed at the floor "
-                    f"numerics.dt_min = {num.dt_min:g} s: {r.reason}")
-            self._h = max(h_try * 0.25, num.dt_min)
+                    f"numerics.dt_min = {num.dt_min:g} s and could not be stepped over: "
+                    f"{r.reason}")
+            self._h = max(h_try * self.tsc.cut, num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: " + r.reason)
         new = stp.state
         # event location: pressure ends and flowback volume
@@ -558,9 +569,9 @@ class MDEMEngine:
         self._v_out += r.outflow_mass / self.rho0
         self._push_row(new, q=q_in, mb=r.relative_mass_balance_error)
         self._track_events(ph, old, new, r)
-        easy = (r.new_failures < num.n1 and r.newton_iterations <= 10
-                and abs(r.dp_w) <= 0.5 * num.dp_max)
-        self._h = min(max(h_try if h_try < h else h_try * (1.5 if easy else 1.0),
+        self._running = r.new_failures > 0 and r.dp_w < 0.0
+        easy = CoupledStepper.easy(r, self.tsc)
+        self._h = min(max(h_try if h_try < h else h_try * (self.tsc.growth if easy else 1.0),
                           num.dt_min), num.dt_max)
         if self._callback is not None:
             self._callback(self)
@@ -670,6 +681,7 @@ class MDEMEngine:
             "ctx": self._ctx,            # json writes inf as Infinity and reads it back
             "v_in": self._v_in, "v_ret": self._v_ret, "v_out": self._v_out,
             "phase_v0": list(self._phase_v0), "retry": self._retry,
+            "running": self._running,
             "phases_out": self.phases_out, "events": self.events, "status": self.status,
             "messages": self.messages, "truth_events": self.truth_events,
             "counters": self.stepper.counters.__dict__,
@@ -704,6 +716,7 @@ class MDEMEngine:
         self._v_in, self._v_ret, self._v_out = scal["v_in"], scal["v_ret"], scal["v_out"]
         self._phase_v0 = tuple(scal["phase_v0"])
         self._retry = scal["retry"]
+        self._running = bool(scal.get("running", False))
         self.phases_out = scal["phases_out"]
         self.events = [tuple(e) for e in scal["events"]]
         self.status, self.messages = scal["status"], scal["messages"]

@@ -807,42 +807,23 @@ class CoupledStepper:
             # land on the target instead of leaving a sliver
             if target - t - h_try < c.dt_min:
                 h_try = target - t
-            max_new = None if at_floor else int(c.n2)
-            if max_new is not None and running and c.crack_growth > 0:
-                # the crack runs into the well storage: limit its growth, not the count
-                max_new = max(max_new, int(math.ceil(c.crack_growth * self.state.n_failed)))
-            r = self.step(h_try, max_new_failures=max_new,
-                          max_dp_w=None if at_floor or math.isinf(c.dp_max) else c.dp_max,
-                          continuation=at_floor and c.continuation)
+            n_hist = len(self.history)
+            r, h_try = self.attempt(h_try, c, running=running, limit=target - t,
+                                    max_dp_w=None if math.isinf(c.dp_max) else c.dp_max,
+                                    at_floor=at_floor)
+            rejected += sum(1 for x in self.history[n_hist:] if not x.success)
             if not r.success:
-                rejected += 1
                 if not at_floor:
                     h = max(h_try * c.cut, c.dt_min)
                     continue
-                # failed at the floor: step over it with longer steps, all rules waived
-                hj = h_try
-                for _ in range(int(c.jump_tries)):
-                    hj = min(hj * c.jump, c.dt_max, target - t)
-                    if hj <= h_try * (1.0 + 1e-9):
-                        break
-                    r = self.step(hj, continuation=c.continuation)
-                    if r.success:
-                        break
-                    rejected += 1
-                if not r.success:
-                    return CoupledRunResult(
-                        "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
-                        f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
-                h_try = hj
+                return CoupledRunResult(
+                    "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
+                    f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
             running = r.new_failures > 0 and r.dp_w < 0.0
             acc.append(r)
             max_rel = max(max_rel, r.relative_mass_balance_error)
             min_dt = min(min_dt, r.dt)
-            factor = 1.0
-            easy = (r.new_failures < c.n1 and r.newton_iterations <= c.newton_easy
-                    and (math.isinf(c.dp_max) or abs(r.dp_w) <= 0.5 * c.dp_max))
-            if easy:
-                factor = c.growth
+            factor = c.growth if self.easy(r, c) else 1.0
             # a step shortened to land on a mark does not shrink the next one
             h = min(max(h if h_try < h else h_try * factor, c.dt_min), c.dt_max)
             if callback is not None:
@@ -852,6 +833,71 @@ class CoupledStepper:
                                         rejected, max_rel, min_dt)
         return CoupledRunResult("completed", f"reached t = {self.state.t:g} s", self.state.t,
                                 acc, rejected, max_rel, min_dt)
+
+    @staticmethod
+    def easy(r: StepResult, c: TimeStepControl) -> bool:
+        """Whether an accepted step lets the next one grow by ``c.growth``: fewer than
+        ``n1`` failures, at most ``newton_easy`` Newton iterations, and a well-pressure
+        change below half ``dp_max``."""
+        return (r.new_failures < c.n1 and r.newton_iterations <= c.newton_easy
+                and (math.isinf(c.dp_max) or abs(r.dp_w) <= 0.5 * c.dp_max))
+
+    def attempt(self, h: float, control: TimeStepControl, *, running: bool = False,
+                limit: float = math.inf, max_dp_w: float | None = None,
+                at_floor: bool | None = None) -> tuple[StepResult, float]:
+        """One trial of the adaptive stepping of :meth:`run` (its rules in one place, for
+        drivers with their own loop such as the 2D engine).
+
+        Above the floor: a step of ``h`` with the failure limit ``n2`` (while the crack
+        runs, ``max(n2, crack_growth * n_failed)``) and the pressure-change limit
+        ``max_dp_w``. At the floor (``h <= dt_min``) no limits and continuation in the step
+        length; if that fails, steps of ``dt_min * jump^k`` (capped by ``dt_max`` and
+        ``limit``) with all rules waived, the first that converges is taken.
+
+        Parameters
+        ----------
+        h : float
+            Step to try [s].
+        control : TimeStepControl
+        running : bool
+            The last accepted step failed clusters while the well pressure fell.
+        limit : float
+            Longest step a jump over a floor failure may take [s] (the next mark).
+        max_dp_w : float, optional
+            Pressure-change limit above the floor [Pa].
+        at_floor : bool, optional
+            Whether this is a floor step; default ``h <= dt_min``. (A floor step
+            lengthened to land on a mark, by less than ``dt_min``, is still one.)
+
+        Returns
+        -------
+        (StepResult, float)
+            The last trial (accepted or not) and its step length [s]. A failure with a
+            step above ``dt_min`` is to be cut and retried; at the floor it is final.
+        """
+        c = control
+        if at_floor is None:
+            at_floor = h <= c.dt_min * (1.0 + 1e-9)
+        max_new = None if at_floor else int(c.n2)
+        if max_new is not None and running and c.crack_growth > 0:
+            # the crack runs into the well storage: limit its growth, not the count
+            max_new = max(max_new, int(math.ceil(c.crack_growth * self.state.n_failed)))
+        r = self.step(h, max_new_failures=max_new,
+                      max_dp_w=None if at_floor else max_dp_w,
+                      continuation=at_floor and c.continuation)
+        if r.success or not at_floor:
+            return r, h
+        # failed at the floor: step over it with longer steps, all rules waived
+        hj = h
+        for _ in range(int(c.jump_tries)):
+            h_next = min(hj * c.jump, c.dt_max, limit)
+            if h_next <= hj * (1.0 + 1e-9):
+                break
+            hj = h_next
+            r = self.step(hj, continuation=c.continuation)
+            if r.success:
+                return r, hj
+        return r, h
 
     def run_to(self, t_end: float, dt: float, growth: float = 1.0,
                dt_max: float = math.inf, cut: float = 0.25, dt_min: float = 1e-9
