@@ -425,3 +425,42 @@ def test_failure_count_controls_the_step(hole_mesh):
     assert all(r.new_failures <= 3 or r.dt <= 1e-3 * (1 + 1e-9) for r in ok)
     assert stp.counters.failed_clusters == stp.state.n_failed - len(cut)
     assert all(r.relative_mass_balance_error <= 1e-8 for r in ok)
+
+
+def test_branch_violation_measures_the_miss_of_each_held_branch(hole_mesh):
+    """The gap tolerance of the held contact branches (CoupledControl.contact_gap_rtol)
+    compares distances [m]: overlap of a contact held open, opening of one held closed,
+    shear displacement past the friction limit (stick) or short of it (slip)."""
+    from types import SimpleNamespace
+
+    from xlotkit.sim.mechanics import OPEN, SLIP, STICK
+
+    model = _model(hole_mesh)
+    model.initial_state()
+    stp = CoupledStepper(model)
+    mech = model.mechanics
+    nc = model.n_cells
+    kn, ks, mu = mech.kn, mech.ks, mech.mu
+    zero = np.zeros((nc, 3))
+    st = SimpleNamespace(ref_normal=zero, ref_shear=zero)
+    # contact 0 of every cluster: normal displacement -1e-6 m (1 um overlap), shear
+    # displacement chosen so |F_s| is 10 % above the friction limit
+    Un = np.full((nc, 3), -1e-6)
+    cap_disp = mu * kn * 1e-6 / ks            # shear displacement at the friction limit
+    Us = 1.1 * cap_disp
+    res = SimpleNamespace(response=(None, None, None, Un, Us))
+    held = np.full((nc, 3), OPEN)
+    v = stp._branch_violation(res, st, held, zero)
+    assert np.allclose(v, 1e-6, rtol=1e-12)                 # overlap of an open contact
+    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    assert np.allclose(v, 0.1 * cap_disp, rtol=1e-9)         # past the limit in stick
+    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), np.ones((nc, 3)))
+    assert np.all(v == 0.0)                                  # slipping in its sign: exact
+    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), -np.ones((nc, 3)))
+    assert np.allclose(v, 2.1 * cap_disp, rtol=1e-9)         # wrong sign: the whole way back
+    # an opening of 2 um is the violation of a contact held closed
+    res = SimpleNamespace(response=(None, None, None, np.full((nc, 3), 2e-6), zero))
+    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    assert np.allclose(v, 2e-6, rtol=1e-12)
+    with pytest.raises(InputError, match="contact_gap_rtol"):
+        CoupledControl(contact_gap_rtol=-1.0)

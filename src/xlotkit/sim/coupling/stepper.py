@@ -102,6 +102,19 @@ class CoupledControl:
         solutions), with the failure rounds at every level, up to ``dt``; the result is
         the step of ``dt``. At most ``continuation_levels`` back-offs, each solve at most
         ``continuation_newton`` iterations (the last one ``max_newton``).
+    contact_gap_rtol : float
+        Gap tolerance of the contact law, as a fraction of the model's residual aperture
+        ``w_res``: a solve converged with contacts held on branches of their law is
+        accepted when every contact on a wrong branch misses the exact law's switch point
+        by at most ``contact_gap_rtol * w_res`` (:meth:`CoupledStepper._branch_violation`:
+        overlap of a contact held open, opening of one held closed, shear displacement
+        past or short of the friction limit). A contact whose exact solution lies at the
+        corner of its law (zero force and zero gap) can have no solution on either
+        branch next to it (the piecewise-linear system folds there); holding it closed
+        gives a small opening, holding it open a small overlap, and moving it cycles. The
+        tolerance accepts the closure point to within a fraction of the closed crack's
+        hydraulic aperture; the hydraulic aperture itself is the geometric gap whatever
+        the branch, so the flow is unaffected. ``0``: the exact law only.
     """
 
     max_newton: int = 60
@@ -120,6 +133,7 @@ class CoupledControl:
     continuation_levels: int = 12
     continuation_cut: float = 0.25
     continuation_newton: int = 25
+    contact_gap_rtol: float = 0.25
 
     def __post_init__(self) -> None:
         for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips",
@@ -132,6 +146,8 @@ class CoupledControl:
         if self.chatter not in ("freeze", "soft"):
             raise InputError(f"must be 'freeze' or 'soft', got {self.chatter!r}",
                              key="coupling.chatter")
+        if not (math.isfinite(self.contact_gap_rtol) and self.contact_gap_rtol >= 0):
+            raise InputError("must be >= 0", key="coupling.contact_gap_rtol")
         if not 0 < self.continuation_cut < 1:
             raise InputError("must be in (0, 1)", key="coupling.continuation_cut")
         for k in ("force_rtol", "mass_rtol", "stagnation_rtol", "mass_balance_tol"):
@@ -232,6 +248,8 @@ class CoupledCounters:
         Clusters failed in accepted steps.
     linear_solve_time : float
         Wall time in the sparse LU factorisations and solves [s].
+    contact_tolerance_steps : int
+        Solves accepted on held contact branches within ``CoupledControl.contact_gap_rtol``.
     """
 
     steps: int = 0
@@ -242,6 +260,7 @@ class CoupledCounters:
     failure_rounds: int = 0
     failed_clusters: int = 0
     linear_solve_time: float = 0.0
+    contact_tolerance_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -347,7 +366,21 @@ def _equilibrated_solve(J: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
     c = np.asarray(abs(A).max(axis=0).toarray()).ravel()
     c = np.where(c > 0, 1.0 / c, 1.0)
     A = (A @ sp.diags(c)).tocsc()
-    y = spla.splu(A).solve(r * rhs)
+    b = r * rhs
+    # the coupled matrix is structurally symmetric (K, G / dV_du, the flow graph): a
+    # minimum-degree ordering of A + A^T with pivots preferred on the diagonal fills about
+    # half as much as the default column ordering and factors twice as fast (measured on a
+    # 3085-unknown cracked model: 15 vs 29 ms); the default is the fallback when the
+    # diagonal pivots are poor
+    try:
+        y = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                      options={"SymmetricMode": True}).solve(b)
+        ok = np.all(np.isfinite(y)) and (np.linalg.norm(A @ y - b)
+                                         <= 1e-10 * max(np.linalg.norm(b), 1e-300))
+    except RuntimeError:
+        ok = False
+    if not ok:
+        y = spla.splu(A).solve(b)
     return c * y
 
 
@@ -405,6 +438,25 @@ class CoupledStepper:
         cap = mech.mu * np.maximum(-trial_n, 0.0)
         law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
         return law, np.sign(trial_s)
+
+    def _branch_violation(self, res: CoupledResidual, st: Structure, fstat: np.ndarray,
+                          fsgn: np.ndarray) -> np.ndarray:
+        """How far [m] each contact's iterate lies beyond the switch point of the exact law
+        when held on branch ``fstat`` (sign ``fsgn``): the overlap of a contact held open,
+        the opening of one held closed, the shear displacement past the friction limit of
+        one held in stick, or short of it (in its sign) of one held slipping; 0 where the
+        held branch is the exact law's."""
+        mech = self.model.mechanics
+        Un, Us = res.response[3], res.response[4]
+        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
+        cap = mech.mu * np.maximum(-trial_n, 0.0)
+        v_open = np.maximum(-trial_n, 0.0) / mech.kn
+        v_closed = np.maximum(trial_n, 0.0) / mech.kn
+        v_stick = np.maximum(np.abs(trial_s) - cap, 0.0) / mech.ks
+        v_slip = np.maximum(cap - fsgn * trial_s, 0.0) / mech.ks
+        return np.where(fstat == OPEN, v_open,
+                        np.maximum(v_closed, np.where(fstat == SLIP, v_slip, v_stick)))
 
     def _newton(self, x, old, dt, undrained, st, max_it=None):
         """Semi-smooth Newton on the coupled residual for fixed cluster states.
@@ -484,6 +536,16 @@ class CoupledStepper:
                     break
                 law, lsg = self._law_status(exact, st)
                 wrong = fmask & ((law != fstat) | ((law == SLIP) & (lsg != fsgn)))
+                tol = ctl.contact_gap_rtol * model.residual_aperture
+                if wrong.any() and tol > 0 and np.all(
+                        self._branch_violation(exact, st, fstat, fsgn)[wrong] <= tol):
+                    # the held branches miss the exact law only at the corners of the law,
+                    # by less than the gap tolerance (a contact whose solution sits at the
+                    # corner, where the branches on either side have no solution of their
+                    # own: moving it only cycles); accepted on the held branches
+                    self.counters.contact_tolerance_steps += 1
+                    ok, reason = True, "converged"
+                    break
                 if not wrong.any():
                     # (only at round-off: the exact law is then the held one) release all
                     fmask[:] = False
