@@ -12,7 +12,10 @@ Scene -> model (what is assembled; SPEC §2-§6)
   file read by meshio instead), domain ``geometry.domain_size``, hole ``geometry.hole_radius``.
 * rock: E, nu, Biot alpha, T0, S0, phi, k; ``effects.heterogeneity`` (uniform +-
   ``rock.heterogeneity`` on the strengths, seeded), ``effects.strength_scaling`` (crack-tip
-  size scaling, ``(A_ref / A)^m``), ``[[effects.interface]]`` planes of weakness.
+  size scaling, ``(A_ref / A)^m``; ``rock.toughness`` sets ``A_ref`` from ``K_IC``),
+  ``[[effects.interface]]`` planes of weakness, ``effects.fracture_plane`` (failed clusters
+  of the fracture band open and close as a smooth joint along sigma_H, with
+  ``rock.fracture_friction_angle``; :class:`~xlotkit.sim.mechanics.FracturePlane`).
 * stresses: sigma_H along ``sigma_H_azimuth``, sigma_h across it (the 2D far field gets the
   rotated components), pore pressure p0; the borehole starts at the static mud column
   (``completion.initial_pressure`` or the hydrostatic column of the fluid), in equilibrium.
@@ -77,6 +80,7 @@ from xlotkit.sim.mechanics import (
     FAILED_SHEAR,
     FAILED_TENSILE,
     PRESET,
+    FracturePlane,
     InSituStress,
     InterfacePlane,
     MechanicsModel,
@@ -151,7 +155,7 @@ def _scene_mesh(scene: Scene) -> Mesh:
     if mo.fracture_band:
         h_band = mo.band_element_size or h_wall or 2 * math.pi * geo.hole_radius / 64
         band = FractureBand(math.radians(scene.stresses.sigma_H_azimuth), mo.band_width,
-                            h_band, mo.band_length)
+                            h_band, mo.band_length, strip=bool(mo.band_strip))
     try:
         return borehole_mesh(size=geo.domain_size, radius=geo.hole_radius, growth=mo.growth,
                              h_wall=h_wall, h_max=mo.max_element_size, fracture_band=band,
@@ -226,15 +230,20 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     biot = float(rk.biot) if eff.poroelastic else DECOUPLED_BIOT
     scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
                               reference_area=rk.strength_scaling_reference_area,
-                              exponent=rk.strength_scaling_exponent)
+                              exponent=rk.strength_scaling_exponent,
+                              toughness=rk.toughness)
     rock = RockProperties(young=rk.youngs_modulus, poisson=rk.poisson_ratio, biot=biot,
                           tensile_strength=rk.tensile_strength, cohesion=rk.cohesion,
                           friction_angle_deg=rk.friction_angle,
                           heterogeneity=rk.heterogeneity if eff.heterogeneity else 0.0,
                           seed=int(scene.rock_seed) % (2**63), scaling=scaling)
     planes = tuple(InterfacePlane(p.start, p.end, p.friction_angle) for p in eff.interface)
+    fplane = None
+    if eff.fracture_plane:
+        fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
+                               friction_angle_deg=rk.fracture_friction_angle)
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes)
+                          interfaces=planes, fracture_plane=fplane)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)
