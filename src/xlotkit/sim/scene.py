@@ -98,6 +98,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "scene_reference_markdown",
+    "standard_2d_scene",
 ]
 
 Model = Literal["auto", "lumped", "mdem"]
@@ -1210,6 +1211,22 @@ def load_scene(path: str | Path) -> Scene:
         raise InputError(f"not valid TOML: {exc}", file=str(p),
                          line=int(m.group(1)) if m else None) from None
     return scene_from_dict(data, file=str(p), text=text)
+
+
+def standard_2d_scene() -> Scene:
+    """The standard two-cycle XLOT on the 2D model (what ``xlotkit demo`` simulates).
+
+    Shipped with the package (``xlotkit/sim/scenes/standard_2d.toml``; the same file as
+    ``examples/scene_2d_standard.toml``): the thesis's 2000 m well (~67 l/MPa), sigma_H
+    40 / sigma_h 30 MPa, p0 20 MPa, T0 3 MPa with K_IC 1 MPa m^0.5 at crack tips, a 40 m
+    section with a crack strip along sigma_H whose failed clusters close as a smooth joint;
+    500 l/min pump-ins of 0.9 and 0.6 m^3, shut-ins and choke flowbacks (300 l/min at
+    opening) to 27 MPa and to 2 MPa at surface.
+    """
+    from importlib.resources import as_file, files
+
+    with as_file(files("xlotkit.sim") / "scenes" / "standard_2d.toml") as path:
+        return load_scene(path)
 
 
 # =========================================================================== docs

@@ -57,6 +57,7 @@ import numpy as np
 from xlotkit.errors import InputError, XlotkitError
 from xlotkit.record import Event, PressureReference, Record
 from xlotkit.sim.coupling.geometry import fracture_summary
+from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.coupling.model import (
     CoupledModel,
     CoupledState,
@@ -312,6 +313,8 @@ class MDEMEngine:
         """The in-situ equilibrium at t = 0: drilled hole at the mud column, no fracture."""
         self._build()
         st = self._fresh_state()
+        # total stress of the in-situ state (for the realised sigma_h, see _realised)
+        self._stress0 = self.cm.stress(st)
         self.stepper = CoupledStepper(self.cm, st, self.control)
         self._m_intact0 = self.cm.flow.cell_mass(st.flow)
         self._h = min(1.0, self.scene.numerics.dt_max)
@@ -772,18 +775,43 @@ class MDEMEngine:
         return MDEMResult(status=self.status, message=msg, record=record, truth=truth)
 
     def _realised(self) -> dict[str, float]:
-        """Realised tensile strength with heterogeneity: mean strength of the clusters of
-        the crack that touch the wall (where it started)."""
-        if not self.scene.effects.heterogeneity:
-            return {}
+        """What the model realised, where it differs from the scene's input.
+
+        * ``sigma_h``, ``sigma_h_min``, ``sigma_h_max`` [Pa]: the stress normal to the
+          crack's plane that the model has where the crack ended up: the total stress of
+          the in-situ state (the drilled hole at the mud column, before pumping: far field,
+          Kirsch concentration, finite domain) resolved on the normal of the crack's
+          principal axis (:func:`~xlotkit.sim.coupling.geometry.fracture_summary`), area
+          weighted mean (and range) over the clusters of the hole-connected crack. This is
+          the stress the crack closes against; a closure pick is compared with it.
+        * ``tensile_strength`` [Pa] (with heterogeneity): mean strength of the crack's
+          clusters at the wall, where it started.
+        """
         st = self.stepper.state
         cs = st.cluster_state
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR)
-        sel = cracked & self._at_wall
-        if not sel.any():
-            return {}
-        return {"tensile_strength": float(np.mean(
-            np.asarray(self.cm.mechanics.tensile_strength)[sel]))}
+        out: dict[str, float] = {}
+        if not cracked.any():
+            return out
+        connected, _, _ = crack_geometry(self.cm.mechanics, cs)
+        fs = fracture_summary(self.cm, st)
+        if connected.any() and math.isfinite(fs.azimuth_deg):
+            az = math.radians(fs.azimuth_deg)
+            nx, ny = -math.sin(az), math.cos(az)
+            s0 = self._stress0[connected]
+            sn = s0[:, 0] * nx * nx + s0[:, 1] * ny * ny + 2.0 * s0[:, 2] * nx * ny
+            w = np.asarray(self.cm.mesh.areas)[connected]
+            out["sigma_h"] = float(np.sum(w * sn) / np.sum(w))
+            out["sigma_h_min"] = float(np.min(sn))
+            out["sigma_h_max"] = float(np.max(sn))
+            out["fracture_azimuth_deg"] = float(fs.azimuth_deg)
+            out["fracture_half_length"] = 0.5 * float(fs.length)
+        if self.scene.effects.heterogeneity:
+            sel = cracked & self._at_wall
+            if sel.any():
+                out["tensile_strength"] = float(np.mean(
+                    np.asarray(self.cm.mechanics.tensile_strength)[sel]))
+        return out
 
 
 def _time_for_volume(ph: Pump, volume: float) -> float:
