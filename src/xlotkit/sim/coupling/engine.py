@@ -33,13 +33,20 @@ Scene -> model (what is assembled; SPEC §2-§6)
   the choke of a flowback sees the surface pressure, ``Q = zeta sqrt(p_s)``, inside the
   implicit step.
 
-Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.step` with the
+Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.attempt` with the
 thesis's failure-count control (cut when more than ``numerics.n2`` clusters fail, grow when
-fewer than ``numerics.n1``), the Newton and well-pressure-change (``numerics.dp_max``) rules,
-a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time and on volume at a known
-rate are landed on exactly; pressure ends and flowback volumes are located by repeating the
-step shorter (secant on the crossing) until within 10 kPa (or 0.1 % of the volume).
-Every accepted step has its relative mass-balance error checked by the stepper (<= 1e-8).
+fewer than ``numerics.n1``), the stepper's rules for a crack running into the well's storage
+(the failure limit follows the crack's size; a floor step is solved by continuation in its
+length and, failing that, stepped over by longer steps), the Newton and well-pressure-change
+(``numerics.dp_max``) rules, a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time
+and on volume at a known rate are landed on exactly; pressure ends and flowback volumes are
+located by repeating the step shorter (secant on the crossing) until within 10 kPa (or 0.1 %
+of the volume). Every accepted step has its relative mass-balance error checked by the
+stepper (<= 1e-8).
+
+Truth: besides the scene's inputs, :meth:`MDEMEngine.result` reports what the model
+realised (``truth["realised"]``): the stress normal to the crack's plane in the in-situ
+state over the crack (what the crack closes against; see :meth:`MDEMEngine._realised`).
 """
 
 from __future__ import annotations
