@@ -1218,9 +1218,9 @@ def standard_2d_scene() -> Scene:
 
     Shipped with the package (``xlotkit/sim/scenes/standard_2d.toml``; the same file as
     ``examples/scene_2d_standard.toml``): the thesis's 2000 m well (~67 l/MPa), sigma_H
-    40 / sigma_h 30 MPa, p0 20 MPa, T0 3 MPa with K_IC 1 MPa m^0.5 at crack tips, a 40 m
+    40 / sigma_h 30 MPa, p0 20 MPa, T0 3 MPa with K_IC 1 MPa m^0.5 at crack tips, a 50 m
     section with a crack strip along sigma_H whose failed clusters close as a smooth joint;
-    500 l/min pump-ins of 0.9 and 0.6 m^3, shut-ins and choke flowbacks (300 l/min at
+    500 l/min pump-ins of 1.1 and 0.6 m^3, shut-ins and choke flowbacks (300 l/min at
     opening) to 27 MPa and to 2 MPa at surface.
     """
     from importlib.resources import as_file, files
