@@ -64,7 +64,6 @@ import numpy as np
 from xlotkit.errors import InputError, XlotkitError
 from xlotkit.record import Event, PressureReference, Record
 from xlotkit.sim.coupling.geometry import fracture_summary
-from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.coupling.model import (
     CoupledModel,
     CoupledState,
@@ -96,6 +95,7 @@ from xlotkit.sim.mechanics import (
     RockProperties,
     StrengthScaling,
 )
+from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
 from xlotkit.sim.output import Snapshot
 from xlotkit.sim.schedule import Bleed, Flowback, Phase, Pump, ShutIn
