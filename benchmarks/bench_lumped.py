@@ -32,7 +32,7 @@ def main() -> None:
     t_pick = best_of(3, lambda: interpret_record(rec))
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        run_demo(Path(tmp) / "demo")
+        run_demo(Path(tmp) / "demo", model="lumped")
         t_demo = time.perf_counter() - t0
     print("| step | seconds |")
     print("|---|---:|")

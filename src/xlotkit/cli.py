@@ -396,8 +396,13 @@ def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the gauge noise.")
 @click.option("--noise", type=float, default=0.05, show_default=True,
               help="Gauge noise standard deviation [bar].")
+@click.option("--model", "model", type=click.Choice(["2d", "lumped"]), default="2d",
+              show_default=True,
+              help="2d: the 2D MDEM model on the standard scene "
+                   "(examples/scene_2d_standard.toml, about a minute); lumped: the lumped "
+                   "model (about a second).")
 @_friendly_errors
-def demo_cmd(out: str, seed: int, noise: float) -> None:
+def demo_cmd(out: str, seed: int, noise: float, model: str) -> None:
     """Simulate a two-cycle XLOT, read its log back, pick it and write plots and a report."""
     from tqdm import tqdm
 
@@ -409,7 +414,7 @@ def demo_cmd(out: str, seed: int, noise: float) -> None:
             bar.set_description(f"demo: {msg}")
             bar.update(max(0, int(round(100 * frac)) - bar.n))
 
-        res = run_demo(out, seed=seed, noise_bar=noise, progress=progress)
+        res = run_demo(out, model=model, seed=seed, noise_bar=noise, progress=progress)
     click.echo(res.summary)
     click.echo(f"results in {res.out_dir}")
 

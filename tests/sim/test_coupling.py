@@ -512,3 +512,77 @@ def test_newton_backs_off_a_non_finite_update(hole_mesh):
     # without back-offs the same disturbance ends the solve
     r, _, _ = run(CoupledControl(nonfinite_backoffs=0))
     assert not r.success and r.reason == "newton: non-finite"
+def test_branch_violation_measures_the_miss_of_each_held_branch(hole_mesh):
+    """The gap tolerance of the held contact branches (CoupledControl.contact_gap_rtol)
+    compares distances [m]: overlap of a contact held open, opening of one held closed,
+    shear displacement past the friction limit (stick) or short of it (slip)."""
+    from types import SimpleNamespace
+
+    from xlotkit.sim.mechanics import OPEN, SLIP, STICK
+
+    model = _model(hole_mesh)
+    model.initial_state()
+    stp = CoupledStepper(model)
+    mech = model.mechanics
+    nc = model.n_cells
+    kn, ks, mu = mech.kn, mech.ks, mech.mu
+    zero = np.zeros((nc, 3))
+    st = SimpleNamespace(ref_normal=zero, ref_shear=zero)
+    # contact 0 of every cluster: normal displacement -1e-6 m (1 um overlap), shear
+    # displacement chosen so |F_s| is 10 % above the friction limit
+    Un = np.full((nc, 3), -1e-6)
+    cap_disp = mu * kn * 1e-6 / ks            # shear displacement at the friction limit
+    Us = 1.1 * cap_disp
+    res = SimpleNamespace(response=(None, None, None, Un, Us))
+    held = np.full((nc, 3), OPEN)
+    v = stp._branch_violation(res, st, held, zero)
+    assert np.allclose(v, 1e-6, rtol=1e-12)                 # overlap of an open contact
+    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    assert np.allclose(v, 0.1 * cap_disp, rtol=1e-9)         # past the limit in stick
+    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), np.ones((nc, 3)))
+    assert np.all(v == 0.0)                                  # slipping in its sign: exact
+    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), -np.ones((nc, 3)))
+    assert np.allclose(v, 2.1 * cap_disp, rtol=1e-9)         # wrong sign: the whole way back
+    # an opening of 2 um is the violation of a contact held closed
+    res = SimpleNamespace(response=(None, None, None, np.full((nc, 3), 2e-6), zero))
+    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    assert np.allclose(v, 2e-6, rtol=1e-12)
+    with pytest.raises(InputError, match="contact_gap_rtol"):
+        CoupledControl(contact_gap_rtol=-1.0)
+
+
+def test_attempt_steps_over_a_floor_failure_and_limits_a_running_crack(hole_mesh):
+    """CoupledStepper.attempt (the rules run() and the 2D engine share): a floor step that
+    fails is retried with continuation and then stepped over by dt_min * jump^k; while the
+    crack runs the failure limit is crack_growth * n_failed, not n2."""
+    from types import SimpleNamespace
+
+    from xlotkit.sim.coupling import StepResult
+
+    model = _model(hole_mesh)
+    stp = CoupledStepper(model, model.initial_state())
+    calls = []
+
+    def fake_step(dt, max_new_failures=None, max_dp_w=None, continuation=False):
+        calls.append((dt, max_new_failures, continuation))
+        ok = dt > 1.5e-4           # the floor step (1e-4 s) has no solution, 4e-4 s has
+        return StepResult(ok, "converged" if ok else "newton: stalled", 1, 1, dt,
+                          stp.state.t + (dt if ok else 0.0))
+
+    stp.step = fake_step
+    c = TimeStepControl(dt_min=1e-4, dt_max=1.0, n2=8, crack_growth=0.5)
+    r, h = stp.attempt(1e-4, c, limit=10.0)
+    assert r.success and h == pytest.approx(4e-4)
+    # the floor try: no failure limit, with continuation; then the jump, all rules waived
+    assert calls == [(1e-4, None, True), (pytest.approx(4e-4), None, True)]
+    # jumps are capped by the next mark: one try up to it, then the failure is final
+    calls.clear()
+    r, h = stp.attempt(1e-4, c, limit=1.2e-4)
+    assert not r.success and h == 1e-4
+    assert [d for d, _, _ in calls] == [1e-4, pytest.approx(1.2e-4)]
+    # a running crack of 40 failed clusters may fail 20 in the next step (n2 = 8)
+    calls.clear()
+    stp.state = SimpleNamespace(t=0.0, n_failed=40)          # a crack of 40 clusters
+    stp.attempt(0.1, c, running=True)
+    stp.attempt(0.1, c, running=False)
+    assert [m for _, m, _ in calls] == [20, 8]

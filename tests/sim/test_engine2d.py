@@ -163,3 +163,20 @@ def test_bad_scenes_name_the_key(tmp_path):
     sc = scene_from_dict(_scene_dict(completion={"initial_pressure": "10 MPa"}))
     with pytest.raises(InputError, match="completion.initial_pressure"):
         build_model(sc)
+
+
+def test_a_well_at_rest_before_the_test_steps_through():
+    """A shut-in before the first pump (the well at rest at the mud column): nothing moves,
+    so the force residual sits at its round-off; the steps converge there and grow to
+    dt_max, the pressure stays at the mud column, and the phase belongs to cycle 1."""
+    d = _scene_dict()
+    d["schedule"] = {"phase": [{"kind": "shut_in", "duration": "20 s", "name": "static"},
+                               *d["schedule"]["phase"][:1]]}
+    e = _run(scene_from_dict(d))
+    r = e.rows()
+    rest = r["t"] <= 20.0
+    # the well leaks into the 1e-21 m^2 rock at 3.7 MPa overbalance: < 1 Pa in 20 s
+    assert np.ptp(r["bottomhole_pressure"][rest]) < 1.0
+    assert e.stepper.counters.failed_steps == 0
+    assert [p["cycle"] for p in e.phases_out] == [1, 1]
+    assert e.events[0][1].startswith("cycle 1")

@@ -119,3 +119,35 @@ def test_mesh_from_triangles_orients_and_finds_boundary():
     assert len(m.boundary_edges) == 4 and m.hole_radius is None
     r = rectangle_mesh(2.0, 1.0, 4, 2, jitter=0.2, seed=1)
     assert r.areas.sum() == pytest.approx(2.0)
+
+
+def test_crack_strip_straddles_the_axis_from_wall_to_band_end():
+    """mesh.band_strip: every strip triangle has nodes on both sides of the band axis, no
+    node lies on the axis, and the strip is one chain of edge-sharing triangles from the
+    hole wall (whose mouth edge the axis cuts in the middle) to the band's end."""
+    import math
+
+    band = FractureBand(0.0, 1.0, 0.4, 4.0, strip=True)
+    mesh = borehole_mesh(size=12.0, radius=0.15, growth=1.5, h_wall=2 * math.pi * 0.15 / 12,
+                         fracture_band=band)
+    strip = np.flatnonzero(mesh.triangle_markers == 1)
+    y = mesh.nodes[mesh.triangles[strip]][..., 1]
+    assert np.all(y.max(axis=1) > 0) and np.all(y.min(axis=1) < 0)
+    x = mesh.nodes[:, 0]
+    on_axis = (np.abs(mesh.nodes[:, 1]) < 1e-9) & (np.abs(x) < 4.0)
+    assert not on_axis.any()
+    for wing in (1.0, -1.0):
+        tri = strip[wing * mesh.centroids[strip, 0] > 0]
+        tri = tri[np.argsort(wing * mesh.centroids[tri, 0])]
+        # consecutive strip triangles share an edge (two nodes)
+        for a, b in zip(tri[:-1], tri[1:]):
+            assert len(set(mesh.triangles[a]) & set(mesh.triangles[b])) == 2
+        first = mesh.nodes[mesh.triangles[tri[0]]]
+        r = np.hypot(first[:, 0], first[:, 1])
+        assert np.sum(np.isclose(r, 0.15)) == 2                  # the mouth wall edge
+        # its two wall nodes mirror each other about the axis
+        wall = first[np.isclose(r, 0.15)]
+        assert wall[0, 0] == pytest.approx(wall[1, 0]) and wall[0, 1] == pytest.approx(
+            -wall[1, 1])
+        # 0.4 m spacing: the last strip triangle within one spacing of the band end
+        assert wing * mesh.centroids[tri[-1], 0] > 4.0 - 0.4

@@ -55,7 +55,8 @@ def test_new_format_example_is_the_lumped_standard_scene():
 
 
 def test_to_toml_round_trip():
-    for f in ("scene_standard.toml", "scene_2d_heterogeneous.toml", "lumped_standard.toml"):
+    for f in ("scene_standard.toml", "scene_2d_heterogeneous.toml", "lumped_standard.toml",
+              "scene_2d_standard.toml"):
         sc = load_scene(EX / f)
         back = scene_from_dict(tomllib.loads(sc.to_toml()))
         assert _bare(back) == _bare(sc), f
@@ -200,3 +201,26 @@ def test_docs_list_every_key():
     for sec, keys in SCENE_KEYS.items():
         for k in keys:
             assert re.search(rf"\| `{re.escape(k)}` \|", ref), (sec, k)
+
+
+def test_standard_2d_scene_is_the_example_file():
+    from xlotkit.sim.scene import standard_2d_scene
+
+    pkg = ROOT / "src" / "xlotkit" / "sim" / "scenes" / "standard_2d.toml"
+    assert pkg.read_text() == (EX / "scene_2d_standard.toml").read_text()
+    sc = standard_2d_scene()
+    assert sc.resolved_model == "mdem"
+    assert sc.effects.fracture_plane and sc.mesh.band_strip and sc.rock.toughness == 1e6
+    assert "effects.fracture_plane" in sc.two_d_reasons
+
+
+def test_fracture_plane_and_toughness_are_checked():
+    with pytest.raises(InputError, match="effects.fracture_plane"):
+        scene_from_dict(_scene(effects={"fracture_plane": True}))
+    with pytest.raises(InputError, match="rock.strength_scaling_exponent"):
+        scene_from_dict(_scene(rock={"toughness": "1 MPa*m**0.5",
+                                     "strength_scaling_exponent": 0.3}))
+    sc = scene_from_dict(_scene(mesh={"fracture_band": True, "band_strip": True},
+                                effects={"fracture_plane": True},
+                                rock={"fracture_friction_angle": "5 deg"}))
+    assert sc.rock.fracture_friction_angle == 5.0 and sc.resolved_model == "mdem"

@@ -23,6 +23,10 @@ def test_cycles_start_at_each_pressurisation_and_repeat():
     two = Schedule([Pump(5e-3, volume=1.0), Pump(1e-3, duration=10.0), ShutIn(duration=9.0),
                     Pump(5e-3, volume=1.0), Bleed(1e-3, duration=5.0)])
     assert [c for c, _ in two] == [1, 1, 1, 2, 2]
+    # the well at rest before the first pump is part of the first cycle
+    rest = Schedule([ShutIn(duration=120.0), Pump(5e-3, volume=1.0), ShutIn(duration=60.0),
+                     Pump(5e-3, volume=0.5)])
+    assert [c for c, _ in rest] == [1, 1, 1, 2] and rest.n_cycles == 2
 
 
 def test_from_dict_parses_field_units():

@@ -220,12 +220,22 @@ class FractureBand:
         Target edge length inside the band [m].
     length : float
         Half-length of the band measured from the hole centre [m].
+    strip : bool
+        Lay a *crack strip* along the band axis: two rows of nodes at ``+-sqrt(3)/4 h``
+        either side of the axis, staggered by half a spacing, from the hole wall (whose
+        nodes are then placed so that the axis meets the wall in the middle of an edge)
+        to ``length``; the spacing ``h`` follows the generator's size (graded from the
+        wall edge length up to the band's ``h``). Every strip triangle straddles the axis,
+        so a crack along it runs through a chain of triangles and never through a node.
+        Only the strip triangles get the band marker (the band still sets the
+        refinement).
     """
 
     azimuth: float
     width: float
     h: float
     length: float
+    strip: bool = False
 
     def __post_init__(self) -> None:
         for key in ("width", "h", "length"):
@@ -483,6 +493,51 @@ def _place_on_curve(curve: np.ndarray, h, closed: bool, offset: float) -> np.nda
     return np.column_stack([x, y])
 
 
+def _add_crack_strip(pts: np.ndarray, fixed: np.ndarray, n_wall: int, radius: float,
+                     half: float, band: FractureBand, h):
+    """Replace the generated nodes along the band axis by a crack strip (see
+    :class:`FractureBand`); returns the new nodes, their fixed flags and the strip mask."""
+    d = np.array([math.cos(band.azimuth), math.sin(band.azimuth)])
+    nrm = np.array([-d[1], d[0]])
+    c = math.sqrt(3.0) / 4.0
+    wall = pts[:n_wall]
+    mouth_along = radius * math.cos(math.pi / n_wall)
+    end = min(band.length, 0.95 * half)
+    rows = []
+    for wing in (1.0, -1.0):
+        # the two wall nodes of the mouth edge start the strip; then nodes alternate
+        # between the rows, half a local spacing apart along the axis
+        def size(s: float) -> float:
+            return float(h((wing * s * d)[None, :])[0])
+
+        s_pos = mouth_along
+        side = 1.0
+        while True:
+            s_pos += 0.5 * size(s_pos + 0.25 * size(s_pos))
+            if s_pos > end:
+                break
+            rows.append(wing * s_pos * d + side * c * size(s_pos) * nrm)
+            side = -side
+    new = np.array(rows)
+    # generated nodes within about one local size of the strip give way (not the wall or
+    # the outer boundary)
+    along = pts @ d
+    across = pts @ nrm
+    hp = h(pts)
+    clear = ((np.abs(across) < c * hp + 0.6 * hp) & (np.abs(along) > mouth_along)
+             & (np.abs(along) <= end + 0.6 * hp) & ~fixed)
+    keep = ~clear
+    mouth = np.zeros(len(pts), dtype=bool)
+    w_al = wall @ d
+    w_ac = wall @ nrm
+    mouth[:n_wall] = np.abs(np.abs(w_al) - mouth_along) < 1e-9 * radius
+    mouth[:n_wall] &= np.abs(w_ac) < radius * math.sin(1.5 * math.pi / n_wall)
+    pts = np.vstack([pts[keep], new])
+    fixed = np.concatenate([fixed[keep], np.ones(len(new), dtype=bool)])
+    strip = np.concatenate([mouth[keep], np.ones(len(new), dtype=bool)])
+    return pts, fixed, strip
+
+
 def _outer_square(half: float, h) -> np.ndarray:
     corners = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
     out = []
@@ -589,6 +644,11 @@ def borehole_mesh(
             if k == 0:
                 # exact circle for the wall
                 ang = np.arctan2(pts[:, 1], pts[:, 0])
+                if band is not None and band.strip:
+                    # an even number of equal wall edges, the band axis through the middle
+                    # of one on either side (the crack strip starts on that edge)
+                    n_w = len(ang) + len(ang) % 2
+                    ang = band.azimuth + (np.arange(n_w) + 0.5) * 2.0 * math.pi / n_w
                 pts = radius * np.column_stack([np.cos(ang), np.sin(ang)])
         if k > 0 and recent:
             ref = np.vstack([p for _, p in recent])
@@ -616,6 +676,9 @@ def borehole_mesh(
     fixed = np.zeros(len(pts), dtype=bool)
     fixed[:n_wall] = True
     fixed[len(pts) - n_outer:] = True
+    strip_nodes = np.zeros(len(pts), dtype=bool)
+    if band is not None and band.strip:
+        pts, fixed, strip_nodes = _add_crack_strip(pts, fixed, n_wall, radius, half, band, h)
 
     def triangulate(p: np.ndarray) -> np.ndarray:
         tri = Delaunay(p)
@@ -666,7 +729,17 @@ def borehole_mesh(
         raise RuntimeError("mesh generation failed: hole wall not recovered; "
                            "try a smaller growth or h_wall")
     markers = np.zeros(mesh.n_triangles, dtype=np.int64)
-    if band is not None:
+    if band is not None and band.strip:
+        # the strip triangles: three strip nodes (the mouth's wall nodes included), on
+        # both sides of the axis
+        d = np.array([math.cos(band.azimuth), math.sin(band.azimuth)])
+        nodes = mesh.nodes
+        across = nodes[:, 0] * d[1] - nodes[:, 1] * d[0]
+        t = mesh.triangles
+        on = strip_nodes[t].all(axis=1)
+        sides = np.sign(across[t])
+        markers[on & (sides.max(axis=1) > 0) & (sides.min(axis=1) < 0)] = TRI_BAND
+    elif band is not None:
         c = mesh.centroids
         d = np.array([math.cos(band.azimuth), math.sin(band.azimuth)])
         across = np.abs(c[:, 0] * d[1] - c[:, 1] * d[0])

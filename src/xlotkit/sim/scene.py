@@ -105,6 +105,7 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "scene_reference_markdown",
+    "standard_2d_scene",
 ]
 
 Model = Literal["auto", "lumped", "mdem"]
@@ -224,6 +225,9 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                                 doc="edge length in the band (default wall_element_size)"),
         "band_length": _k(_L, "m", 0.0, 1e4, lo_open=True,
                           doc="half-length of the band from the hole centre"),
+        "band_strip": _k("bool", doc="lay a crack strip along the band axis: two staggered "
+                                     "node rows, every strip triangle straddling the axis "
+                                     "(only they are band clusters)"),
         "jitter": _k("dimensionless", "", 0.0, 0.3,
                      doc="random node displacement, fraction of the local size"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,
@@ -252,6 +256,13 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                                             "effects.strength_scaling)"),
         "strength_scaling_reference_area": _k("m**2", "m^2", 0.0, 1e4, lo_open=True,
                                               doc="reference cluster area A_ref"),
+        "toughness": _k("Pa*m**0.5", "Pa m^0.5", 0.0, 100e6, lo_open=True, optional=True,
+                        doc="fracture toughness K_IC of crack-tip clusters (used when "
+                            "effects.strength_scaling; sets A_ref from T0, needs the "
+                            "exponent 0.25)"),
+        "fracture_friction_angle": _k("angle", "deg", 0.0, 89.0,
+                                      doc="friction angle of failed fracture-band clusters "
+                                          "(used when effects.fracture_plane)"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,
                    doc="seed of the heterogeneity draw (default: the master seed)"),
     },
@@ -318,6 +329,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "heterogeneity": _k("bool", doc="seeded strength heterogeneity (2D)"),
         "strength_scaling": _k("bool", doc="triangle-size strength scaling (2D)"),
         "shear_dilation": _k("bool", doc="shear dilation of fracture apertures (2D)"),
+        "fracture_plane": _k("bool", doc="failed clusters of the fracture band open and "
+                                         "close as a smooth joint along sigma_H, with "
+                                         "rock.fracture_friction_angle (2D; needs "
+                                         "mesh.fracture_band)"),
         "interface": _k("interfaces", doc="planes of weakness, [[effects.interface]] tables "
                                           "with start = [x, y], end = [x, y] (m), "
                                           "friction_angle (deg) (2D)"),
@@ -544,6 +559,7 @@ class MeshOptions:
     band_width: float = 1.0
     band_element_size: float | None = None
     band_length: float = 10.0
+    band_strip: bool = False
     jitter: float = 0.0
     seed: int | None = None
     file: str | None = None
@@ -568,10 +584,18 @@ class Rock:
     heterogeneity: float = 0.25
     strength_scaling_exponent: float = 0.25
     strength_scaling_reference_area: float = 1e-4
+    toughness: float | None = None
+    fracture_friction_angle: float = 0.0
     seed: int | None = None
 
     def __post_init__(self) -> None:
         _validate(self, self.section)
+        if self.toughness is not None and self.strength_scaling_exponent != 0.25:
+            raise InputError("a toughness needs the LEFM exponent 0.25",
+                             key="rock.strength_scaling_exponent", expected="0.25")
+        if self.toughness is not None and self.tensile_strength == 0.0:
+            raise InputError("a toughness needs a positive tensile strength",
+                             key="rock.tensile_strength", expected="> 0 with rock.toughness")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -727,6 +751,7 @@ class Effects:
     heterogeneity: bool = False
     strength_scaling: bool = False
     shear_dilation: bool = False
+    fracture_plane: bool = False
     interface: tuple[Interface, ...] = ()
 
     def __post_init__(self) -> None:
@@ -893,6 +918,10 @@ class Scene:
         _validate(self, "")
         object.__setattr__(self, "given", frozenset(self.given))
         self.completion.completion(self.geometry, self.fluid)
+        if self.effects.fracture_plane and not self.mesh.fracture_band:
+            raise InputError("effects.fracture_plane needs a fracture band",
+                             key="effects.fracture_plane",
+                             expected="mesh.fracture_band = true, or fracture_plane = false")
         if self.model == "lumped" and self.two_d_reasons:
             key = self.two_d_reasons[0]
             raise InputError(f"model = 'lumped' cannot simulate {key}", key=key,
@@ -937,7 +966,8 @@ class Scene:
         if "mesh" in self.given:
             out.append("mesh")
         ef = self.effects
-        for name in ("poroelastic", "heterogeneity", "strength_scaling", "shear_dilation"):
+        for name in ("poroelastic", "heterogeneity", "strength_scaling", "shear_dilation",
+                     "fracture_plane"):
             if getattr(ef, name):
                 out.append(f"effects.{name}")
         if ef.interface:
@@ -1269,6 +1299,22 @@ def load_scene(path: str | Path) -> Scene:
         raise InputError(f"not valid TOML: {exc}", file=str(p),
                          line=int(m.group(1)) if m else None) from None
     return scene_from_dict(data, file=str(p), text=text)
+
+
+def standard_2d_scene() -> Scene:
+    """The standard two-cycle XLOT on the 2D model (what ``xlotkit demo`` simulates).
+
+    Shipped with the package (``xlotkit/sim/scenes/standard_2d.toml``; the same file as
+    ``examples/scene_2d_standard.toml``): the thesis's 2000 m well (~67 l/MPa), sigma_H
+    40 / sigma_h 30 MPa, p0 20 MPa, T0 3 MPa with K_IC 1 MPa m^0.5 at crack tips, a 50 m
+    section with a crack strip along sigma_H whose failed clusters close as a smooth joint;
+    500 l/min pump-ins of 1.1 and 0.6 m^3, shut-ins and choke flowbacks (300 l/min at
+    opening) to 27 MPa and to 2 MPa at surface.
+    """
+    from importlib.resources import as_file, files
+
+    with as_file(files("xlotkit.sim") / "scenes" / "standard_2d.toml") as path:
+        return load_scene(path)
 
 
 # =========================================================================== docs

@@ -21,7 +21,8 @@ falling to ``pressure_below`` (measured at ``pressure_at``: ``"bottomhole"`` or
 phase needs at least one end condition.
 
 Cycles: the phase list is run ``cycles`` times; within it a new cycle starts at every pump
-phase that follows a non-pump phase (an XLOT cycle is a pressurisation and what follows).
+phase that follows a non-pump phase (an XLOT cycle is a pressurisation and what follows);
+phases before the first pump (the well at rest before the test) belong to the first cycle.
 """
 
 from __future__ import annotations
@@ -297,10 +298,14 @@ class Schedule:
         out: list[tuple[int, Phase]] = []
         cyc = 0
         prev: Phase | None = None
+        pumped = False        # the current cycle has pumped already
         for _ in range(self.cycles):
             for ph in self.phases:
-                if cyc == 0 or (isinstance(ph, Pump) and not isinstance(prev, Pump)):
+                if cyc == 0 or (isinstance(ph, Pump) and not isinstance(prev, Pump)
+                                and pumped):
                     cyc += 1
+                    pumped = False
+                pumped = pumped or isinstance(ph, Pump)
                 out.append((cyc, ph))
                 prev = ph
         return tuple(out)

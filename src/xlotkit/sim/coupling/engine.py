@@ -12,7 +12,10 @@ Scene -> model (what is assembled; SPEC §2-§6)
   file read by meshio instead), domain ``geometry.domain_size``, hole ``geometry.hole_radius``.
 * rock: E, nu, Biot alpha, T0, S0, phi, k; ``effects.heterogeneity`` (uniform +-
   ``rock.heterogeneity`` on the strengths, seeded), ``effects.strength_scaling`` (crack-tip
-  size scaling, ``(A_ref / A)^m``), ``[[effects.interface]]`` planes of weakness.
+  size scaling, ``(A_ref / A)^m``; ``rock.toughness`` sets ``A_ref`` from ``K_IC``),
+  ``[[effects.interface]]`` planes of weakness, ``effects.fracture_plane`` (failed clusters
+  of the fracture band open and close as a smooth joint along sigma_H, with
+  ``rock.fracture_friction_angle``; :class:`~xlotkit.sim.mechanics.FracturePlane`).
 * stresses: sigma_H along ``sigma_H_azimuth``, sigma_h across it (the 2D far field gets the
   rotated components), pore pressure p0; the borehole starts at the static mud column
   (``completion.initial_pressure`` or the hydrostatic column of the fluid), in equilibrium.
@@ -30,13 +33,20 @@ Scene -> model (what is assembled; SPEC §2-§6)
   the choke of a flowback sees the surface pressure, ``Q = zeta sqrt(p_s)``, inside the
   implicit step.
 
-Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.step` with the
+Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.attempt` with the
 thesis's failure-count control (cut when more than ``numerics.n2`` clusters fail, grow when
-fewer than ``numerics.n1``), the Newton and well-pressure-change (``numerics.dp_max``) rules,
-a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time and on volume at a known
-rate are landed on exactly; pressure ends and flowback volumes are located by repeating the
-step shorter (secant on the crossing) until within 10 kPa (or 0.1 % of the volume).
-Every accepted step has its relative mass-balance error checked by the stepper (<= 1e-8).
+fewer than ``numerics.n1``), the stepper's rules for a crack running into the well's storage
+(the failure limit follows the crack's size; a floor step is solved by continuation in its
+length and, failing that, stepped over by longer steps), the Newton and well-pressure-change
+(``numerics.dp_max``) rules, a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time
+and on volume at a known rate are landed on exactly; pressure ends and flowback volumes are
+located by repeating the step shorter (secant on the crossing) until within 10 kPa (or 0.1 %
+of the volume). Every accepted step has its relative mass-balance error checked by the
+stepper (<= 1e-8).
+
+Truth: besides the scene's inputs, :meth:`MDEMEngine.result` reports what the model
+realised (``truth["realised"]``): the stress normal to the crack's plane in the in-situ
+state over the crack (what the crack closes against; see :meth:`MDEMEngine._realised`).
 """
 
 from __future__ import annotations
@@ -59,7 +69,12 @@ from xlotkit.sim.coupling.model import (
     CoupledState,
     grain_pore_compressibility,
 )
-from xlotkit.sim.coupling.stepper import CoupledControl, CoupledCounters, CoupledStepper
+from xlotkit.sim.coupling.stepper import (
+    CoupledControl,
+    CoupledCounters,
+    CoupledStepper,
+    TimeStepControl,
+)
 from xlotkit.sim.flow import (
     FlowModel,
     FlowState,
@@ -72,6 +87,7 @@ from xlotkit.sim.mechanics import (
     FAILED_SHEAR,
     FAILED_TENSILE,
     PRESET,
+    FracturePlane,
     InSituStress,
     InterfacePlane,
     MechanicsModel,
@@ -79,6 +95,7 @@ from xlotkit.sim.mechanics import (
     RockProperties,
     StrengthScaling,
 )
+from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
 from xlotkit.sim.output import Snapshot
 from xlotkit.sim.schedule import Bleed, Flowback, Phase, Pump, ShutIn
@@ -146,7 +163,7 @@ def _scene_mesh(scene: Scene) -> Mesh:
     if mo.fracture_band:
         h_band = mo.band_element_size or h_wall or 2 * math.pi * geo.hole_radius / 64
         band = FractureBand(math.radians(scene.stresses.sigma_H_azimuth), mo.band_width,
-                            h_band, mo.band_length)
+                            h_band, mo.band_length, strip=bool(mo.band_strip))
     try:
         return borehole_mesh(size=geo.domain_size, radius=geo.hole_radius, growth=mo.growth,
                              h_wall=h_wall, h_max=mo.max_element_size, fracture_band=band,
@@ -221,15 +238,20 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     biot = float(rk.biot) if eff.poroelastic else DECOUPLED_BIOT
     scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
                               reference_area=rk.strength_scaling_reference_area,
-                              exponent=rk.strength_scaling_exponent)
+                              exponent=rk.strength_scaling_exponent,
+                              toughness=rk.toughness)
     rock = RockProperties(young=rk.youngs_modulus, poisson=rk.poisson_ratio, biot=biot,
                           tensile_strength=rk.tensile_strength, cohesion=rk.cohesion,
                           friction_angle_deg=rk.friction_angle,
                           heterogeneity=rk.heterogeneity if eff.heterogeneity else 0.0,
                           seed=int(scene.rock_seed) % (2**63), scaling=scaling)
     planes = tuple(InterfacePlane(p.start, p.end, p.friction_angle) for p in eff.interface)
+    fplane = None
+    if eff.fracture_plane:
+        fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
+                               friction_angle_deg=rk.fracture_friction_angle)
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes)
+                          interfaces=planes, fracture_plane=fplane)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)
@@ -281,6 +303,9 @@ class MDEMEngine:
         self.column = well_column(sc)
         num = sc.numerics
         self.control = CoupledControl(max_newton=int(num.max_newton))
+        self.tsc = TimeStepControl(dt_initial=min(1.0, num.dt_max), dt_min=num.dt_min,
+                                   dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
+                                   dp_max=float(num.dp_max))
         self.rho0 = float(self.cm.flow.fluid.density)
         mesh = self.cm.mesh
         wall = np.zeros(mesh.n_nodes, dtype=bool)
@@ -295,6 +320,8 @@ class MDEMEngine:
         """The in-situ equilibrium at t = 0: drilled hole at the mud column, no fracture."""
         self._build()
         st = self._fresh_state()
+        # total stress of the in-situ state (for the realised sigma_h, see _realised)
+        self._stress0 = self.cm.stress(st)
         self.stepper = CoupledStepper(self.cm, st, self.control)
         self._m_intact0 = self.cm.flow.cell_mass(st.flow)
         self._h = min(1.0, self.scene.numerics.dt_max)
@@ -305,6 +332,7 @@ class MDEMEngine:
         self._v_in = self._v_ret = self._v_out = 0.0
         self._phase_v0 = (0.0, 0.0)
         self._retry: dict[str, Any] | None = None
+        self._running = False      # the last step failed clusters into a falling p_w
         self._rows: dict[str, list[float]] = {k: [] for k in _ROW_KEYS}
         self.phases_out: list[dict[str, Any]] = []
         self.events: list[tuple[float, str]] = []
@@ -507,14 +535,15 @@ class MDEMEngine:
         if self._retry is not None:
             h = min(h, self._retry["h"])
         h_try = min(h, target - t)
+        at_floor = h_try <= num.dt_min * (1.0 + 1e-9)
         if target - t - h_try < num.dt_min:
             h_try = target - t
         h_try = max(h_try, 1e-12)
-        at_floor = h_try <= num.dt_min * (1.0 + 1e-9)
-        # at the floor, a failed solve is retried by continuation in the step length (a
-        # turning point of the step's equations at breakdown, docs/coupling.md)
-        r = stp.step(h_try, max_new_failures=None if at_floor else int(num.n2),
-                     continuation=at_floor)
+        # the stepper's adaptive rules (docs/coupling.md, "Breakdown into a large well
+        # storage"): while the crack runs the failure limit follows its size; at the floor
+        # continuation in the step length, then longer steps over a turning point
+        r, h_try = stp.attempt(h_try, self.tsc, running=self._running, limit=target - t,
+                               at_floor=at_floor)
         if (r.success and not at_floor and r.new_failures == 0
                 and abs(r.dp_w) > float(num.dp_max)):
             # the pressure-change rule bounds the smooth change of p_w per step; a jump at
@@ -523,11 +552,12 @@ class MDEMEngine:
             self._h = max(h_try * 0.5 * float(num.dp_max) / abs(r.dp_w), num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: pressure change")
         if not r.success:
-            if at_floor or h_try <= num.dt_min * (1.0 + 1e-9):
+            if at_floor:
                 raise XlotkitError(
                     f"2D step of {h_try:g} s at t = {t:g} s failed at the floor "
-                    f"numerics.dt_min = {num.dt_min:g} s: {r.reason}")
-            self._h = max(h_try * 0.25, num.dt_min)
+                    f"numerics.dt_min = {num.dt_min:g} s and could not be stepped over: "
+                    f"{r.reason}")
+            self._h = max(h_try * self.tsc.cut, num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: " + r.reason)
         new = stp.state
         # event location: pressure ends and flowback volume
@@ -558,9 +588,9 @@ class MDEMEngine:
         self._v_out += r.outflow_mass / self.rho0
         self._push_row(new, q=q_in, mb=r.relative_mass_balance_error)
         self._track_events(ph, old, new, r)
-        easy = (r.new_failures < num.n1 and r.newton_iterations <= 10
-                and abs(r.dp_w) <= 0.5 * num.dp_max)
-        self._h = min(max(h_try if h_try < h else h_try * (1.5 if easy else 1.0),
+        self._running = r.new_failures > 0 and r.dp_w < 0.0
+        easy = CoupledStepper.easy(r, self.tsc)
+        self._h = min(max(h_try if h_try < h else h_try * (self.tsc.growth if easy else 1.0),
                           num.dt_min), num.dt_max)
         if self._callback is not None:
             self._callback(self)
@@ -670,6 +700,7 @@ class MDEMEngine:
             "ctx": self._ctx,            # json writes inf as Infinity and reads it back
             "v_in": self._v_in, "v_ret": self._v_ret, "v_out": self._v_out,
             "phase_v0": list(self._phase_v0), "retry": self._retry,
+            "running": self._running,
             "phases_out": self.phases_out, "events": self.events, "status": self.status,
             "messages": self.messages, "truth_events": self.truth_events,
             "counters": self.stepper.counters.__dict__,
@@ -704,6 +735,7 @@ class MDEMEngine:
         self._v_in, self._v_ret, self._v_out = scal["v_in"], scal["v_ret"], scal["v_out"]
         self._phase_v0 = tuple(scal["phase_v0"])
         self._retry = scal["retry"]
+        self._running = bool(scal.get("running", False))
         self.phases_out = scal["phases_out"]
         self.events = [tuple(e) for e in scal["events"]]
         self.status, self.messages = scal["status"], scal["messages"]
@@ -750,18 +782,43 @@ class MDEMEngine:
         return MDEMResult(status=self.status, message=msg, record=record, truth=truth)
 
     def _realised(self) -> dict[str, float]:
-        """Realised tensile strength with heterogeneity: mean strength of the clusters of
-        the crack that touch the wall (where it started)."""
-        if not self.scene.effects.heterogeneity:
-            return {}
+        """What the model realised, where it differs from the scene's input.
+
+        * ``sigma_h``, ``sigma_h_min``, ``sigma_h_max`` [Pa]: the stress normal to the
+          crack's plane that the model has where the crack ended up: the total stress of
+          the in-situ state (the drilled hole at the mud column, before pumping: far field,
+          Kirsch concentration, finite domain) resolved on the normal of the crack's
+          principal axis (:func:`~xlotkit.sim.coupling.geometry.fracture_summary`), area
+          weighted mean (and range) over the clusters of the hole-connected crack. This is
+          the stress the crack closes against; a closure pick is compared with it.
+        * ``tensile_strength`` [Pa] (with heterogeneity): mean strength of the crack's
+          clusters at the wall, where it started.
+        """
         st = self.stepper.state
         cs = st.cluster_state
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR)
-        sel = cracked & self._at_wall
-        if not sel.any():
-            return {}
-        return {"tensile_strength": float(np.mean(
-            np.asarray(self.cm.mechanics.tensile_strength)[sel]))}
+        out: dict[str, float] = {}
+        if not cracked.any():
+            return out
+        connected, _, _ = crack_geometry(self.cm.mechanics, cs)
+        fs = fracture_summary(self.cm, st)
+        if connected.any() and math.isfinite(fs.azimuth_deg):
+            az = math.radians(fs.azimuth_deg)
+            nx, ny = -math.sin(az), math.cos(az)
+            s0 = self._stress0[connected]
+            sn = s0[:, 0] * nx * nx + s0[:, 1] * ny * ny + 2.0 * s0[:, 2] * nx * ny
+            w = np.asarray(self.cm.mesh.areas)[connected]
+            out["sigma_h"] = float(np.sum(w * sn) / np.sum(w))
+            out["sigma_h_min"] = float(np.min(sn))
+            out["sigma_h_max"] = float(np.max(sn))
+            out["fracture_azimuth_deg"] = float(fs.azimuth_deg)
+            out["fracture_half_length"] = 0.5 * float(fs.length)
+        if self.scene.effects.heterogeneity:
+            sel = cracked & self._at_wall
+            if sel.any():
+                out["tensile_strength"] = float(np.mean(
+                    np.asarray(self.cm.mechanics.tensile_strength)[sel]))
+        return out
 
 
 def _time_for_volume(ph: Pump, volume: float) -> float:

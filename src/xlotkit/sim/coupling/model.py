@@ -83,7 +83,6 @@ from xlotkit.sim.mechanics import (
     MechanicsState,
 )
 from xlotkit.sim.mechanics.assembly import (
-    assemble_matrix,
     assemble_vector,
     edge_traction_load,
 )
@@ -146,6 +145,33 @@ def boundary_load(mesh: Mesh, tags, stress) -> np.ndarray:
         raise InputError("stress must be a scalar or 2x2", key="stress")
     sel = np.isin(mesh.boundary_tags, np.atleast_1d(np.asarray(tags, dtype=np.int64)))
     return edge_traction_load(mesh.nodes, mesh.boundary_edges[sel], -S)
+
+
+class _BlockAssembler:
+    """Sums cluster blocks (n_c, 6, 6) into a CSR matrix of a fixed sparsity pattern.
+
+    The pattern (the cluster DOFs mapped to the reduced unknowns, ``-1`` dropped) is
+    sorted once; each assembly is one weighted ``bincount`` into the data array instead
+    of a COO -> CSR conversion (which sorted the same indices at every Newton iteration).
+    """
+
+    def __init__(self, dofs: np.ndarray, index: np.ndarray, n: int) -> None:
+        rows = index[np.repeat(dofs, 6, axis=1).ravel()]
+        cols = index[np.tile(dofs, (1, 6)).ravel()]
+        self._ok = (rows >= 0) & (cols >= 0)
+        key = rows[self._ok] * np.int64(n) + cols[self._ok]
+        uniq, self._slot = np.unique(key, return_inverse=True)
+        self._indices = (uniq % n).astype(np.int32)
+        counts = np.bincount(uniq // n, minlength=n)
+        self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        self._nnz = len(uniq)
+        self.n = n
+
+    def __call__(self, blocks: np.ndarray) -> sp.csr_matrix:
+        data = np.bincount(self._slot, weights=np.asarray(blocks).ravel()[self._ok],
+                           minlength=self._nnz)
+        return sp.csr_matrix((data, self._indices.copy(), self._indptr.copy()),
+                             shape=(self.n, self.n))
 
 
 # --------------------------------------------------------------------------- state
@@ -414,6 +440,12 @@ class CoupledModel:
         self.free_dofs = np.flatnonzero(free)
         self._sel = mech_index[self.free_dofs]   # rows/cols of the mechanics' reduced K
         self._sel_all = len(self._sel) == int(np.sum(mechanics.free))
+        # reduced unknown of every mechanics DOF (-1: held), for the tangent assembly
+        unknown = -np.ones(n_dof, dtype=np.int64)
+        unknown[self.free_dofs] = np.arange(len(self.free_dofs))
+        self._assemble_k = _BlockAssembler(np.asarray(mechanics.dofs, dtype=np.int64),
+                                           unknown, len(self.free_dofs))
+        self._g_cache: tuple[bytes, sp.csr_matrix] | None = None
         self.n_u = len(self.free_dofs)
         self.n_cells = mesh.n_triangles
         self.n_unknowns = self.n_u + self.n_cells + 1
@@ -499,8 +531,16 @@ class CoupledModel:
         return np.where(np.asarray(cluster_state) != INTACT, 1.0, self.biot)
 
     def pressure_operator(self, cluster_state: np.ndarray) -> sp.csr_matrix:
-        """``G`` (n_u x m) [m]: nodal forces of unit cluster pressures (free DOFs)."""
-        return (self._G_unit @ sp.diags(self.coefficients(cluster_state))).tocsr()
+        """``G`` (n_u x m) [m]: nodal forces of unit cluster pressures (free DOFs).
+
+        Cached for the last cluster states (they change only when clusters fail).
+        """
+        key = np.asarray(cluster_state).tobytes()
+        if self._g_cache is not None and self._g_cache[0] == key:
+            return self._g_cache[1]
+        G = (self._G_unit @ sp.diags(self.coefficients(cluster_state))).tocsr()
+        self._g_cache = (key, G)
+        return G
 
     def state_of(self, x: np.ndarray, t: float, load: np.ndarray,
                  structure: Structure | None = None) -> CoupledState:
@@ -640,9 +680,7 @@ class CoupledModel:
                               1e-4 * float(np.max(np.abs(self._fc0[failed]))))
         # mechanics tangent for the current statuses
         blocks = mech._tangent_blocks(cs, status, sgn, soft)
-        K = assemble_matrix(blocks, mech.dofs, mech.n_dof, keep=mech.keep)
-        if not self._sel_all:
-            K = K[self._sel][:, self._sel]
+        K = self._assemble_k(blocks)
         G = self.pressure_operator(cs)
         dV_du = (-self.height * G.T).tocsr()
         # fracture permeability

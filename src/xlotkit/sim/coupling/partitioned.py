@@ -63,7 +63,7 @@ from xlotkit.sim.coupling.segment import (
     CoupledSegmentStep,
     fluid_storage,
 )
-from xlotkit.sim.coupling.stepper import CoupledCounters, StepResult
+from xlotkit.sim.coupling.stepper import CoupledCounters, CoupledStepper, StepResult
 from xlotkit.sim.scene import PARTITIONED_COUPLINGS, Scene
 from xlotkit.sim.wellcoupling import (
     ControllerMemory,
@@ -295,6 +295,11 @@ class WellCoupledStepper:
         self.history: list[StepResult] = []
         self.call_log: list[tuple] = []
         self._state = state
+
+    # the adaptive rules of a trial (failure limit of a running crack, continuation and
+    # jumps at the floor) only need ``step`` and ``state.n_failed``, which this stepper
+    # has with the same meaning
+    attempt = CoupledStepper.attempt
 
     @property
     def state(self) -> WellCoupledState:

@@ -106,6 +106,19 @@ class CoupledControl:
         A Newton update whose residual is not finite (e.g. ``rho(p)`` overflowing at a
         wild pressure) is shortened by a factor 4 up to this many times before the solve
         fails with ``"newton: non-finite"``.
+    contact_gap_rtol : float
+        Gap tolerance of the contact law, as a fraction of the model's residual aperture
+        ``w_res``: a solve converged with contacts held on branches of their law is
+        accepted when every contact on a wrong branch misses the exact law's switch point
+        by at most ``contact_gap_rtol * w_res`` (:meth:`CoupledStepper._branch_violation`:
+        overlap of a contact held open, opening of one held closed, shear displacement
+        past or short of the friction limit). A contact whose exact solution lies at the
+        corner of its law (zero force and zero gap) can have no solution on either
+        branch next to it (the piecewise-linear system folds there); holding it closed
+        gives a small opening, holding it open a small overlap, and moving it cycles. The
+        tolerance accepts the closure point to within a fraction of the closed crack's
+        hydraulic aperture; the hydraulic aperture itself is the geometric gap whatever
+        the branch, so the flow is unaffected. ``0``: the exact law only.
     """
 
     max_newton: int = 60
@@ -125,6 +138,7 @@ class CoupledControl:
     continuation_cut: float = 0.25
     continuation_newton: int = 25
     nonfinite_backoffs: int = 8
+    contact_gap_rtol: float = 0.25
 
     def __post_init__(self) -> None:
         for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips",
@@ -138,6 +152,8 @@ class CoupledControl:
         if self.chatter not in ("freeze", "soft"):
             raise InputError(f"must be 'freeze' or 'soft', got {self.chatter!r}",
                              key="coupling.chatter")
+        if not (math.isfinite(self.contact_gap_rtol) and self.contact_gap_rtol >= 0):
+            raise InputError("must be >= 0", key="coupling.contact_gap_rtol")
         if not 0 < self.continuation_cut < 1:
             raise InputError("must be in (0, 1)", key="coupling.continuation_cut")
         for k in ("force_rtol", "mass_rtol", "stagnation_rtol", "mass_balance_tol"):
@@ -238,6 +254,8 @@ class CoupledCounters:
         Clusters failed in accepted steps.
     linear_solve_time : float
         Wall time in the sparse LU factorisations and solves [s].
+    contact_tolerance_steps : int
+        Solves accepted on held contact branches within ``CoupledControl.contact_gap_rtol``.
     """
 
     steps: int = 0
@@ -248,6 +266,7 @@ class CoupledCounters:
     failure_rounds: int = 0
     failed_clusters: int = 0
     linear_solve_time: float = 0.0
+    contact_tolerance_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -344,16 +363,38 @@ class CoupledRunResult:
         return self.status != "failed"
 
 
-def _equilibrated_solve(J: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+def _equilibrated_solve(J: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
     """Solve ``J x = rhs`` with row then column scaling by the largest entries."""
-    A = J.tocsr()
-    r = np.asarray(abs(A).max(axis=1).toarray()).ravel()
-    r = np.where(r > 0, 1.0 / r, 1.0)
-    A = sp.diags(r) @ A
-    c = np.asarray(abs(A).max(axis=0).toarray()).ravel()
-    c = np.where(c > 0, 1.0 / c, 1.0)
-    A = (A @ sp.diags(c)).tocsc()
-    y = spla.splu(A).solve(r * rhs)
+    A = J.tocsc(copy=True)
+    A.sum_duplicates()
+    n = A.shape[0]
+    # scalings on the CSC arrays directly (the sparse-matrix products they replace cost
+    # as much as the factorisation on a few-thousand-unknown model)
+    ad = np.abs(A.data)
+    rmax = np.zeros(n)
+    np.maximum.at(rmax, A.indices, ad)
+    r = np.where(rmax > 0, 1.0 / np.where(rmax > 0, rmax, 1.0), 1.0)
+    A.data *= r[A.indices]
+    col = np.repeat(np.arange(n), np.diff(A.indptr))
+    cmax = np.zeros(n)
+    np.maximum.at(cmax, col, np.abs(A.data))
+    c = np.where(cmax > 0, 1.0 / np.where(cmax > 0, cmax, 1.0), 1.0)
+    A.data *= c[col]
+    b = r * rhs
+    # the coupled matrix is structurally symmetric (K, G / dV_du, the flow graph): a
+    # minimum-degree ordering of A + A^T with pivots preferred on the diagonal fills about
+    # half as much as the default column ordering and factors twice as fast (measured on a
+    # 3085-unknown cracked model: 15 vs 29 ms); the default is the fallback when the
+    # diagonal pivots are poor
+    try:
+        y = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                      options={"SymmetricMode": True}).solve(b)
+        ok = np.all(np.isfinite(y)) and (np.linalg.norm(A @ y - b)
+                                         <= 1e-10 * max(np.linalg.norm(b), 1e-300))
+    except RuntimeError:
+        ok = False
+    if not ok:
+        y = spla.splu(A).solve(b)
     return c * y
 
 
@@ -401,6 +442,25 @@ class CoupledStepper:
         Jf = abs(res.jacobian[nu:])
         return 4.0 * np.finfo(float).eps * float(np.sum(Jf @ np.abs(x)))
 
+    def _forces_ok(self, res: CoupledResidual, x: np.ndarray, ru: float) -> bool:
+        """Force rows converged: ``max |R_u| <= force_rtol * force_scale``, or each row
+        at its round-off floor ``4 eps sum_j |dR_u,i/dx_j| |x_j|``.
+
+        The residual is incremental (``u - u_0``, ``p - p_0``) and the force scale is the
+        size of the increments' forces; when almost nothing moves (a shut-in of intact rock)
+        that scale shrinks to the rounding of ``x - x_0`` itself and the relative test
+        cannot be met.
+        """
+        ctl = self.control
+        if ru <= ctl.force_rtol:
+            return True
+        if ru > 1e-6:
+            return False
+        nu = self.model.n_u
+        Ru = np.abs(res.residual[:nu])
+        floor = 4.0 * np.finfo(float).eps * (abs(res.jacobian[:nu]) @ np.abs(x))
+        return bool(np.all(Ru <= np.maximum(ctl.force_rtol * res.force_scale, floor)))
+
     def _law_status(self, res: CoupledResidual, st: Structure):
         """Status (open/stick/slip) and shear sign of every contact under the exact law at
         the iterate of ``res``."""
@@ -411,6 +471,25 @@ class CoupledStepper:
         cap = mech.mu * np.maximum(-trial_n, 0.0)
         law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
         return law, np.sign(trial_s)
+
+    def _branch_violation(self, res: CoupledResidual, st: Structure, fstat: np.ndarray,
+                          fsgn: np.ndarray) -> np.ndarray:
+        """How far [m] each contact's iterate lies beyond the switch point of the exact law
+        when held on branch ``fstat`` (sign ``fsgn``): the overlap of a contact held open,
+        the opening of one held closed, the shear displacement past the friction limit of
+        one held in stick, or short of it (in its sign) of one held slipping; 0 where the
+        held branch is the exact law's."""
+        mech = self.model.mechanics
+        Un, Us = res.response[3], res.response[4]
+        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
+        cap = mech.mu * np.maximum(-trial_n, 0.0)
+        v_open = np.maximum(-trial_n, 0.0) / mech.kn
+        v_closed = np.maximum(trial_n, 0.0) / mech.kn
+        v_stick = np.maximum(np.abs(trial_s) - cap, 0.0) / mech.ks
+        v_slip = np.maximum(cap - fsgn * trial_s, 0.0) / mech.ks
+        return np.where(fstat == OPEN, v_open,
+                        np.maximum(v_closed, np.where(fstat == SLIP, v_slip, v_stick)))
 
     def _newton(self, x, old, dt, undrained, st, max_it=None):
         """Semi-smooth Newton on the coupled residual for fixed cluster states.
@@ -480,7 +559,7 @@ class CoupledStepper:
             # (a shut-in on tight rock) that is the whole residual
             atol += 16 * np.finfo(float).eps * model.well_storage * abs(
                 res.state.p_w) * float(model.flow.fluid.density) / dt
-            u_ok = ru <= ctl.force_rtol
+            u_ok = self._forces_ok(res, x, ru)
             conv = u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol
             if not conv and its > 0 and u_ok and rf > 0.5 * prev:
                 # stagnating: accepted below stagnation_rtol or at the residual's
@@ -494,13 +573,24 @@ class CoupledStepper:
                 # contacts that sit on a wrong branch
                 exact = evaluate(x, None)
                 eru, erf, _ = self._scaled(exact)
-                if (eru <= ctl.force_rtol and erf <= ctl.stagnation_rtol * exact.mass_scale
+                if (self._forces_ok(exact, x, eru)
+                        and erf <= ctl.stagnation_rtol * exact.mass_scale
                         + atol + self._floor(exact, x)):
                     res = exact
                     ok, reason = True, "converged"
                     break
                 law, lsg = self._law_status(exact, st)
                 wrong = fmask & ((law != fstat) | ((law == SLIP) & (lsg != fsgn)))
+                tol = ctl.contact_gap_rtol * model.residual_aperture
+                if wrong.any() and tol > 0 and np.all(
+                        self._branch_violation(exact, st, fstat, fsgn)[wrong] <= tol):
+                    # the held branches miss the exact law only at the corners of the law,
+                    # by less than the gap tolerance (a contact whose solution sits at the
+                    # corner, where the branches on either side have no solution of their
+                    # own: moving it only cycles); accepted on the held branches
+                    self.counters.contact_tolerance_steps += 1
+                    ok, reason = True, "converged"
+                    break
                 if not wrong.any():
                     # (only at round-off: the exact law is then the held one) release all
                     fmask[:] = False
@@ -826,42 +916,23 @@ class CoupledStepper:
             # land on the target instead of leaving a sliver
             if target - t - h_try < c.dt_min:
                 h_try = target - t
-            max_new = None if at_floor else int(c.n2)
-            if max_new is not None and running and c.crack_growth > 0:
-                # the crack runs into the well storage: limit its growth, not the count
-                max_new = max(max_new, int(math.ceil(c.crack_growth * self.state.n_failed)))
-            r = self.step(h_try, max_new_failures=max_new,
-                          max_dp_w=None if at_floor or math.isinf(c.dp_max) else c.dp_max,
-                          continuation=at_floor and c.continuation)
+            n_hist = len(self.history)
+            r, h_try = self.attempt(h_try, c, running=running, limit=target - t,
+                                    max_dp_w=None if math.isinf(c.dp_max) else c.dp_max,
+                                    at_floor=at_floor)
+            rejected += sum(1 for x in self.history[n_hist:] if not x.success)
             if not r.success:
-                rejected += 1
                 if not at_floor:
                     h = max(h_try * c.cut, c.dt_min)
                     continue
-                # failed at the floor: step over it with longer steps, all rules waived
-                hj = h_try
-                for _ in range(int(c.jump_tries)):
-                    hj = min(hj * c.jump, c.dt_max, target - t)
-                    if hj <= h_try * (1.0 + 1e-9):
-                        break
-                    r = self.step(hj, continuation=c.continuation)
-                    if r.success:
-                        break
-                    rejected += 1
-                if not r.success:
-                    return CoupledRunResult(
-                        "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
-                        f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
-                h_try = hj
+                return CoupledRunResult(
+                    "failed", f"step of {h_try:g} s at t = {t:g} s failed at the dt "
+                    f"floor: {r.reason}", self.state.t, acc, rejected, max_rel, min_dt)
             running = r.new_failures > 0 and r.dp_w < 0.0
             acc.append(r)
             max_rel = max(max_rel, r.relative_mass_balance_error)
             min_dt = min(min_dt, r.dt)
-            factor = 1.0
-            easy = (r.new_failures < c.n1 and r.newton_iterations <= c.newton_easy
-                    and (math.isinf(c.dp_max) or abs(r.dp_w) <= 0.5 * c.dp_max))
-            if easy:
-                factor = c.growth
+            factor = c.growth if self.easy(r, c) else 1.0
             # a step shortened to land on a mark does not shrink the next one
             h = min(max(h if h_try < h else h_try * factor, c.dt_min), c.dt_max)
             if callback is not None:
@@ -871,6 +942,71 @@ class CoupledStepper:
                                         rejected, max_rel, min_dt)
         return CoupledRunResult("completed", f"reached t = {self.state.t:g} s", self.state.t,
                                 acc, rejected, max_rel, min_dt)
+
+    @staticmethod
+    def easy(r: StepResult, c: TimeStepControl) -> bool:
+        """Whether an accepted step lets the next one grow by ``c.growth``: fewer than
+        ``n1`` failures, at most ``newton_easy`` Newton iterations, and a well-pressure
+        change below half ``dp_max``."""
+        return (r.new_failures < c.n1 and r.newton_iterations <= c.newton_easy
+                and (math.isinf(c.dp_max) or abs(r.dp_w) <= 0.5 * c.dp_max))
+
+    def attempt(self, h: float, control: TimeStepControl, *, running: bool = False,
+                limit: float = math.inf, max_dp_w: float | None = None,
+                at_floor: bool | None = None) -> tuple[StepResult, float]:
+        """One trial of the adaptive stepping of :meth:`run` (its rules in one place, for
+        drivers with their own loop such as the 2D engine).
+
+        Above the floor: a step of ``h`` with the failure limit ``n2`` (while the crack
+        runs, ``max(n2, crack_growth * n_failed)``) and the pressure-change limit
+        ``max_dp_w``. At the floor (``h <= dt_min``) no limits and continuation in the step
+        length; if that fails, steps of ``dt_min * jump^k`` (capped by ``dt_max`` and
+        ``limit``) with all rules waived, the first that converges is taken.
+
+        Parameters
+        ----------
+        h : float
+            Step to try [s].
+        control : TimeStepControl
+        running : bool
+            The last accepted step failed clusters while the well pressure fell.
+        limit : float
+            Longest step a jump over a floor failure may take [s] (the next mark).
+        max_dp_w : float, optional
+            Pressure-change limit above the floor [Pa].
+        at_floor : bool, optional
+            Whether this is a floor step; default ``h <= dt_min``. (A floor step
+            lengthened to land on a mark, by less than ``dt_min``, is still one.)
+
+        Returns
+        -------
+        (StepResult, float)
+            The last trial (accepted or not) and its step length [s]. A failure with a
+            step above ``dt_min`` is to be cut and retried; at the floor it is final.
+        """
+        c = control
+        if at_floor is None:
+            at_floor = h <= c.dt_min * (1.0 + 1e-9)
+        max_new = None if at_floor else int(c.n2)
+        if max_new is not None and running and c.crack_growth > 0:
+            # the crack runs into the well storage: limit its growth, not the count
+            max_new = max(max_new, int(math.ceil(c.crack_growth * self.state.n_failed)))
+        r = self.step(h, max_new_failures=max_new,
+                      max_dp_w=None if at_floor else max_dp_w,
+                      continuation=at_floor and c.continuation)
+        if r.success or not at_floor:
+            return r, h
+        # failed at the floor: step over it with longer steps, all rules waived
+        hj = h
+        for _ in range(int(c.jump_tries)):
+            h_next = min(hj * c.jump, c.dt_max, limit)
+            if h_next <= hj * (1.0 + 1e-9):
+                break
+            hj = h_next
+            r = self.step(hj, continuation=c.continuation)
+            if r.success:
+                return r, hj
+        return r, h
 
     def run_to(self, t_end: float, dt: float, growth: float = 1.0,
                dt_max: float = math.inf, cut: float = 0.25, dt_min: float = 1e-9

@@ -7,6 +7,7 @@ forces); SI units throughout.
 
 from xlotkit.sim.mechanics.config import (
     BoundaryConditions,
+    FracturePlane,
     InSituStress,
     InterfacePlane,
     RockProperties,
@@ -51,6 +52,7 @@ __all__ = [
     "BoundaryConditions",
     "BreakdownResult",
     "InSituStress",
+    "FracturePlane",
     "InterfacePlane",
     "MechanicsModel",
     "MechanicsResult",

@@ -261,6 +261,44 @@ class InterfacePlane:
 
 
 @dataclass(frozen=True)
+class FracturePlane:
+    """Clusters that, once failed, open and close as a smooth joint along a direction.
+
+    Meant for the generator's fracture band (triangles with marker ``marker``, along the
+    expected fracture, sigma_H): the clusters keep the rock's strength while intact; when
+    one fails, its contacts that cross the line through its centroid along ``azimuth``
+    measure opening and sliding with respect to that line (smooth-joint model, as an
+    :class:`InterfacePlane`), and all three of its contacts slide with
+    ``friction_angle_deg``.
+
+    Why: a crack through a strip of failed triangles whose contacts follow the triangle
+    edges opens through oblique contacts that also slide; with Coulomb friction the slip
+    accumulated while the crack opens locks it open when the pressure falls, so the crack
+    closes only gradually, well below the stress normal to it (measured, docs/coupling.md
+    "A crack that closes at the minimum stress"). A mode-I crack along the plane opens
+    normal to it and, frictionless, closes reversibly at the normal stress.
+
+    Parameters
+    ----------
+    azimuth : float
+        Direction of the plane [rad], counter-clockwise from +x.
+    friction_angle_deg : float
+        Friction angle of the failed clusters' contacts [deg], in [0, 89].
+    marker : int
+        Triangle marker of the clusters (the generator marks its fracture band 1).
+    """
+
+    azimuth: float
+    friction_angle_deg: float = 0.0
+    marker: int = 1
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(float(self.azimuth)):
+            raise InputError("must be finite", key="fracture_plane.azimuth")
+        _range(self, "friction_angle_deg", "fracture_plane", 0.0, 89.0)
+
+
+@dataclass(frozen=True)
 class SolverOptions:
     """Numerical options of the quasi-static solve.
 

@@ -58,6 +58,7 @@ from xlotkit.sim.mechanics.assembly import (
 )
 from xlotkit.sim.mechanics.config import (
     BoundaryConditions,
+    FracturePlane,
     InSituStress,
     InterfacePlane,
     RockProperties,
@@ -256,6 +257,8 @@ class MechanicsModel:
     boundary : BoundaryConditions, optional
     interfaces : sequence of InterfacePlane, optional
     options : SolverOptions, optional
+    fracture_plane : FracturePlane, optional
+        Marked clusters that open as a smooth joint once failed.
 
     Notes
     -----
@@ -271,6 +274,7 @@ class MechanicsModel:
         boundary: BoundaryConditions | None = None,
         interfaces: Sequence[InterfacePlane] = (),
         options: SolverOptions | None = None,
+        fracture_plane: FracturePlane | None = None,
     ) -> None:
         if not isinstance(mesh, Mesh):
             raise InputError("expected a Mesh", key="mesh")
@@ -328,6 +332,12 @@ class MechanicsModel:
         self.interface_mask = np.zeros(nc, dtype=bool)
         for plane in self.interfaces:
             self._add_interface(plane)
+        # clusters whose contacts follow a fracture plane once failed (their references at
+        # failure come from the cluster stress, as for interfaces)
+        self.fracture_plane = fracture_plane
+        self.joint_mask = np.zeros(nc, dtype=bool)
+        if fracture_plane is not None:
+            self._add_fracture_plane(fracture_plane)
         self.bn_c = mdem._operators(self.c_normal)
         # shear relative displacement as in DEM: t . (u_j - u_i). (Measuring it against the
         # cluster's CST rotation was tried: inside a cracked cluster that rotation is
@@ -371,6 +381,23 @@ class MechanicsModel:
             self.c_normal[cc, m] = sgn * ndir
             self.c_shear[cc, m] = sgn * tdir
             self.mu[ci, m] = mu
+
+    def _add_fracture_plane(self, fp: FracturePlane) -> None:
+        mesh = self.mesh
+        tdir = np.array([math.cos(fp.azimuth), math.sin(fp.azimuth)])
+        ndir = np.array([-tdir[1], tdir[0]])
+        ci = np.flatnonzero((np.asarray(mesh.triangle_markers) == fp.marker)
+                            & ~self.interface_mask)
+        self.joint_mask[ci] = True
+        # side of each node of the line through the cluster's centroid along the plane
+        side = (mesh.nodes[mesh.triangles[ci]] - mesh.centroids[ci, None, :]) @ ndir
+        for m, (i, j) in enumerate(mdem.CONTACT_NODES):
+            crossing = side[:, i] * side[:, j] < 0
+            cc = ci[crossing]
+            sgn = np.sign(side[crossing, j])[:, None]  # normal from node i's side to j's
+            self.c_normal[cc, m] = sgn * ndir
+            self.c_shear[cc, m] = sgn * tdir
+        self.mu[ci, :] = math.tan(math.radians(fp.friction_angle_deg))
 
     def _setup_boundary(self) -> None:
         mesh = self.mesh
@@ -603,7 +630,15 @@ class MechanicsModel:
         return self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp)
 
     def _contact_refs(self, idx, u, p, ref_n, ref_s, interface=False):
-        """References of clusters entering a contact state: forces continuous."""
+        """References of clusters entering a contact state: forces continuous.
+
+        Clusters of the fracture plane (``joint_mask``) are always mapped as interfaces
+        (their contact directions are not the sub-edge ones)."""
+        idx = np.asarray(idx, dtype=np.int64)
+        if not interface and idx.size and self.joint_mask[idx].any():
+            j = self.joint_mask[idx]
+            ref_n, ref_s = self._contact_refs(idx[j], u, p, ref_n, ref_s, interface=True)
+            return self._contact_refs(idx[~j], u, p, ref_n, ref_s)
         ref_n = ref_n.copy()
         ref_s = ref_s.copy()
         uc = u.reshape(-1)[self.dofs[idx]]
