@@ -39,27 +39,15 @@ from xlotkit.sim.wellcoupling import (
     WellLoad,
 )
 
+# the monolithic engine's test scene (same folder: pytest puts it on sys.path)
+from test_engine2d import _scene_dict  # noqa: E402
+
 Q = 500 / 60000          # 500 l/min [m^3/s]
 
 
 def _intact_dict(**over):
-    d = {
-        "title": "2D intact storage", "model": "mdem",
-        "geometry": {"domain_size": "4 m"},
-        "mesh": {"growth": 1.4, "wall_element_size": "0.06 m"},
-        "rock": {"tensile_strength": "50 MPa", "cohesion": "100 MPa", "permeability": 1e-21},
-        "stresses": {"sigma_H": "35 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa"},
-        "fluid": {"density": "1.2 sg"},
-        "numerics": {"dt_max": "1 s", "dp_max": "1 MPa"},
-        "schedule": {"phase": [
-            {"kind": "pump", "rate": "500 l/min", "duration": "30 s"},
-            {"kind": "shut_in", "duration": "10 s"},
-            {"kind": "flowback", "initial_rate": "300 l/min", "pressure_below": "24.5 MPa"},
-        ]},
-    }
-    for k, v in over.items():
-        d[k] = {**d.get(k, {}), **v} if isinstance(v, dict) else v
-    return d
+    """The intact storage scene of the monolithic engine's tests (test_engine2d.py)."""
+    return _scene_dict(**over)
 
 
 def _breakdown_dict(**over):
