@@ -347,6 +347,7 @@ class MDEMEngine:
         self._phase_v0 = (0.0, 0.0)
         self._retry: dict[str, Any] | None = None
         self._running = False      # the last step failed clusters into a falling p_w
+        self._open_hist: tuple[np.ndarray, np.ndarray] | None = None
         self._rows: dict[str, list[float]] = {k: [] for k in _ROW_KEYS}
         self.phases_out: list[dict[str, Any]] = []
         self.events: list[tuple[float, str]] = []
@@ -593,6 +594,18 @@ class MDEMEngine:
                 self._retry = {"h": h_new, "tries": tries + 1}
                 return MDEMStepOutcome(False, t, f"locating {name}")
         self._retry = None
+        # a crack that reverses the open/closed change of the last step (opened then
+        # closes, or the reverse) is resolved in time: the step is repeated shorter
+        is_open = self._crack_open(new)
+        if self._open_hist is not None and h_try > num.dt_min * (1.0 + 1e-9):
+            o1, d1 = self._open_hist
+            d2 = is_open - o1
+            if np.any((d1 != 0) & (d2 == -d1) & (o1 >= 0) & (new.cluster_state != 0)):
+                stp.state = old
+                self._h = max(h_try * self.tsc.cut, num.dt_min)
+                return MDEMStepOutcome(False, t, "rejected: crack reversal")
+        prev = self._open_hist[0] if self._open_hist is not None else np.full_like(is_open, -1)
+        self._open_hist = (is_open, np.where((prev >= 0) & (is_open >= 0), is_open - prev, 0))
         # accepted
         q_in = r.injected_mass / (self.rho0 * r.dt) if r.dt > 0 else 0.0
         if q_in >= 0:
@@ -621,6 +634,12 @@ class MDEMEngine:
             self._end_phase(reason)
             return MDEMStepOutcome(True, new.t, "phase end: " + reason)
         return MDEMStepOutcome(True, new.t, "accepted")
+
+    def _crack_open(self, st: CoupledState) -> np.ndarray:
+        """Per cluster: 1 open crack, 0 closed crack, -1 intact."""
+        cs = st.cluster_state
+        _, _, wn, _ = self.cm.crack_permeability(cs, np.asarray(st.mechanics.gap))
+        return np.where(cs != 0, (wn > 0).astype(np.int64), -1)
 
     def _event_before(self, ph: Phase, old: CoupledState, name: str) -> float:
         if name == "volume":
@@ -707,6 +726,8 @@ class MDEMEngine:
             out[f"mech.{f}"] = np.asarray(getattr(ms, f))
         for k, v in self._rows.items():
             out[f"row.{k}"] = np.asarray(v, dtype=float)
+        if self._open_hist is not None:
+            out["open_hist.open"], out["open_hist.change"] = self._open_hist
         scal = {
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
@@ -750,6 +771,9 @@ class MDEMEngine:
         self._phase_v0 = tuple(scal["phase_v0"])
         self._retry = scal["retry"]
         self._running = bool(scal.get("running", False))
+        self._open_hist = ((arr["open_hist.open"].astype(np.int64),
+                            arr["open_hist.change"].astype(np.int64))
+                           if "open_hist.open" in arr else None)
         self.phases_out = scal["phases_out"]
         self.events = [tuple(e) for e in scal["events"]]
         self.status, self.messages = scal["status"], scal["messages"]

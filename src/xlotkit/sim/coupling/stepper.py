@@ -450,7 +450,6 @@ class CoupledStepper:
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
         self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
-        self._at_wall: np.ndarray | None = None
 
     # ---------------------------------------------------------------- Newton
     def _scaled(self, res: CoupledResidual) -> tuple[float, float, float]:
@@ -807,10 +806,11 @@ class CoupledStepper:
         """Which candidates may fail in this step under the crack-speed limit.
 
         A candidate that shares an edge with a cluster failed earlier in this step
-        extends a crack within the step; it may fail only if its centroid lies within
-        ``reach`` plus its own size ``sqrt(2 A)`` of the damage at the step's start (the
-        centroids of the clusters failed then and of the clusters at the hole wall).
-        Other candidates (initiations, extensions of the old crack) are not limited.
+        extends a crack within the step; it may fail only if one of its nodes lies within
+        ``reach`` of the damage at the step's start (the nodes of the clusters failed then
+        and of the hole wall): a cluster touching the old crack always may, the next one
+        out only if the crack may run that far in the step. Other candidates (initiations,
+        extensions of the old crack) are not limited.
         """
         model = self.model
         mesh = model.mesh
@@ -818,9 +818,6 @@ class CoupledStepper:
             _, owners = mesh.edges()
             inner = owners[:, 1] >= 0
             self._adjacency = (owners[inner, 0], owners[inner, 1])
-            wall = np.zeros(mesh.n_nodes, dtype=bool)
-            wall[mesh.hole_nodes] = True
-            self._at_wall = wall[mesh.triangles].any(axis=1)
         a, b = self._adjacency
         failed_old = np.asarray(old.cluster_state) != INTACT
         new = (np.asarray(st.cluster_state) != INTACT) & ~failed_old
@@ -830,14 +827,17 @@ class CoupledStepper:
         keep = ~ext[cand]
         if keep.all():
             return keep
-        ref = failed_old | self._at_wall
+        ref = np.zeros(mesh.n_nodes, dtype=bool)
+        ref[mesh.hole_nodes] = True
+        ref[mesh.triangles[failed_old].ravel()] = True
         if not ref.any():
             return keep
-        xc = mesh.centroids
         far = cand[~keep]
-        d = np.min(np.hypot(xc[far, None, 0] - xc[None, ref, 0],
-                            xc[far, None, 1] - xc[None, ref, 1]), axis=1)
-        keep[~keep] = d <= reach + np.sqrt(2.0 * np.asarray(mesh.areas)[far])
+        xn = mesh.nodes
+        pts = xn[mesh.triangles[far].ravel()]
+        d = np.min(np.hypot(pts[:, None, 0] - xn[None, ref, 0],
+                            pts[:, None, 1] - xn[None, ref, 1]), axis=1)
+        keep[~keep] = d.reshape(-1, 3).min(axis=1) <= reach
         return keep
 
     def _fold_predictor(self, x_start, old, h, st):
