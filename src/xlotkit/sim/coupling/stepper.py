@@ -858,7 +858,7 @@ class CoupledStepper:
         res = None
         for k in ctl.fold_factors:
             ok, _, xl, _, i, s = self._newton(x_start, old, h * k, False, st,
-                                              ctl.continuation_newton)
+                                              min(ctl.continuation_newton, ctl.max_newton))
             its += i
             solves += s
             if not ok:
