@@ -37,8 +37,12 @@ Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.attemp
 thesis's failure-count control (cut when more than ``numerics.n2`` clusters fail, grow when
 fewer than ``numerics.n1``), the stepper's rules for a crack running into the well's storage
 (the failure limit follows the crack's size; a floor step is solved by continuation in its
-length and, failing that, stepped over by longer steps), the Newton and well-pressure-change
-(``numerics.dp_max``) rules, a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time
+length and, failing that, stepped over by longer steps; a failed solve is tried again from
+the solution of a longer step; clusters fail in a chain within a step no farther than the
+Rayleigh-wave speed allows), the Newton and well-pressure-change (``numerics.dp_max``)
+rules, a floor ``dt_min`` and a ceiling ``dt_max``. A step that reverses a crack's
+open/closed change of the previous step is repeated shorter (docs/coupling.md, "Hard
+cases"). Phase ends on time
 and on volume at a known rate are landed on exactly; pressure ends and flowback volumes are
 located by repeating the step shorter (secant on the crossing) until within 10 kPa (or 0.1 %
 of the volume). Every accepted step has its relative mass-balance error checked by the
