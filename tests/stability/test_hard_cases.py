@@ -68,8 +68,9 @@ def test_tiny_segment_volume():
     "clusters average the hoop stress over 0.1-0.18 m, so the first one fails only at "
     "p_w = 47.6 MPa (33.8 MPa on the band mesh); at that pressure the intact wall is "
     "overstressed out to +-37 deg, and the step that takes the crack past 1.4 m fails a third "
-    "wall cluster at the 180 deg mouth, 25.6 deg off the axis, in its first failure round, "
-    "and 40 clusters across the 4 m domain (31 more deferred by the crack-speed limit)"))
+    "wall cluster at the 180 deg mouth, 25.6 deg off the x axis, in its first failure round, "
+    "and 40 clusters across the 4 m domain (31 more deferred by the crack-speed limit), which "
+    "tilt the crack's axis to -5.2 deg and put the +24 deg wall cluster 29 deg off it"))
 def test_coarse_strongly_graded_mesh():
     """Growth 1.8 from 0.1 m wall elements, no band: the crack runs into clusters that
     double in size every other ring."""
