@@ -117,9 +117,10 @@ def _two_cycles(flowback_rate: str, flowback_to: str) -> dict:
     "the invariants hold (no sign flip since the engine repeats a step that reverses a "
     "crack's open/closed change shorter), but the snap-off assertion does not (measured, "
     "docs/coupling.md 'Hard cases'): at the end of the flowback (p_w = 24 MPa) the crack "
-    "is pinched shut at 0.20-0.33 m from the axis (cells at 25-28 MPa, closed) and open "
-    "beyond at 28.5 MPa, but the four failed wall clusters at the mouth (d < 0.2 m, at "
-    "p_w) are open by 0.04-0.18 mm, so 'closed at d < 0.35 m' fails"))
+    "is pinched shut near the well (cells at 25-28 MPa closed, at 0.25-0.33 m on one wing, "
+    "0.20-0.25 m on the other) and open beyond at 28.4-28.5 MPa, but the four failed wall "
+    "clusters at the mouth (d < 0.2 m, at p_w) are open by 0.04-0.18 mm and two clusters "
+    "at 0.28 and 0.33 m by 4.9 and 8.8 um, so 'closed at d < 0.35 m' fails"))
 def test_fast_flowback_snaps_the_fracture_off_near_the_well():
     """Thesis 4.4.4: a flowback fast against the crack's conductivity closes the crack at
     the mouth first, while its far part stays open and holds its fluid."""
