@@ -37,8 +37,12 @@ Steps: each :meth:`MDEMEngine.step` is one trial of :meth:`CoupledStepper.attemp
 thesis's failure-count control (cut when more than ``numerics.n2`` clusters fail, grow when
 fewer than ``numerics.n1``), the stepper's rules for a crack running into the well's storage
 (the failure limit follows the crack's size; a floor step is solved by continuation in its
-length and, failing that, stepped over by longer steps), the Newton and well-pressure-change
-(``numerics.dp_max``) rules, a floor ``dt_min`` and a ceiling ``dt_max``. Phase ends on time
+length and, failing that, stepped over by longer steps; a failed solve is tried again from
+the solution of a longer step; clusters fail in a chain within a step no farther than the
+Rayleigh-wave speed allows), the Newton and well-pressure-change (``numerics.dp_max``)
+rules, a floor ``dt_min`` and a ceiling ``dt_max``. A step that reverses a crack's
+open/closed change of the previous step is repeated shorter (docs/coupling.md, "Hard
+cases"). Phase ends on time
 and on volume at a known rate are landed on exactly; pressure ends and flowback volumes are
 located by repeating the step shorter (secant on the crossing) until within 10 kPa (or 0.1 %
 of the volume). Every accepted step has its relative mass-balance error checked by the
@@ -120,6 +124,18 @@ VOLUME_EVENT_RTOL = 1e-3
 RESIDUAL_APERTURE = 1e-5
 #: Surface pressure [Pa] below which the choke law is linearised (keeps dQ/dp finite).
 _CHOKE_LINEAR = 1e4
+#: Rock bulk density [kg/m^3] for the crack-speed limit only (the model is quasi-static
+#: and has no other use for it); a typical sedimentary rock.
+ROCK_DENSITY = 2500.0
+
+
+def rayleigh_speed(young: float, poisson: float, density: float = ROCK_DENSITY) -> float:
+    """Rayleigh-wave speed [m/s] of an elastic solid (Viktorov's approximation
+    ``c_R = c_s (0.862 + 1.14 nu) / (1 + nu)``, ``c_s = sqrt(E / (2 (1 + nu) rho))``,
+    within 0.5 % for 0 <= nu <= 0.5): the limiting speed of a running crack tip, used
+    as the crack-speed limit of the 2D steps (``CoupledControl.crack_speed``)."""
+    cs = math.sqrt(young / (2.0 * (1.0 + poisson) * density))
+    return cs * (0.862 + 1.14 * poisson) / (1.0 + poisson)
 
 _MECH_FIELDS = ("displacement", "pore_pressure", "stress", "effective_stress",
                 "cluster_state", "contact_status", "normal_force", "shear_force", "gap",
@@ -302,7 +318,9 @@ class MDEMEngine:
         self.cm.well_rate = self._well_rate
         self.column = well_column(sc)
         num = sc.numerics
-        self.control = CoupledControl(max_newton=int(num.max_newton))
+        self.control = CoupledControl(max_newton=int(num.max_newton),
+                                      crack_speed=rayleigh_speed(sc.rock.youngs_modulus,
+                                                                 sc.rock.poisson_ratio))
         self.tsc = TimeStepControl(dt_initial=min(1.0, num.dt_max), dt_min=num.dt_min,
                                    dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
                                    dp_max=float(num.dp_max))
@@ -333,6 +351,7 @@ class MDEMEngine:
         self._phase_v0 = (0.0, 0.0)
         self._retry: dict[str, Any] | None = None
         self._running = False      # the last step failed clusters into a falling p_w
+        self._open_hist: tuple[np.ndarray, np.ndarray] | None = None
         self._rows: dict[str, list[float]] = {k: [] for k in _ROW_KEYS}
         self.phases_out: list[dict[str, Any]] = []
         self.events: list[tuple[float, str]] = []
@@ -579,6 +598,18 @@ class MDEMEngine:
                 self._retry = {"h": h_new, "tries": tries + 1}
                 return MDEMStepOutcome(False, t, f"locating {name}")
         self._retry = None
+        # a crack that reverses the open/closed change of the last step (opened then
+        # closes, or the reverse) is resolved in time: the step is repeated shorter
+        is_open = self._crack_open(new)
+        if self._open_hist is not None and h_try > num.dt_min * (1.0 + 1e-9):
+            o1, d1 = self._open_hist
+            d2 = is_open - o1
+            if np.any((d1 != 0) & (d2 == -d1) & (o1 >= 0) & (new.cluster_state != 0)):
+                stp.state = old
+                self._h = max(h_try * self.tsc.cut, num.dt_min)
+                return MDEMStepOutcome(False, t, "rejected: crack reversal")
+        prev = self._open_hist[0] if self._open_hist is not None else np.full_like(is_open, -1)
+        self._open_hist = (is_open, np.where((prev >= 0) & (is_open >= 0), is_open - prev, 0))
         # accepted
         q_in = r.injected_mass / (self.rho0 * r.dt) if r.dt > 0 else 0.0
         if q_in >= 0:
@@ -607,6 +638,12 @@ class MDEMEngine:
             self._end_phase(reason)
             return MDEMStepOutcome(True, new.t, "phase end: " + reason)
         return MDEMStepOutcome(True, new.t, "accepted")
+
+    def _crack_open(self, st: CoupledState) -> np.ndarray:
+        """Per cluster: 1 open crack, 0 closed crack, -1 intact."""
+        cs = st.cluster_state
+        _, _, wn, _ = self.cm.crack_permeability(cs, np.asarray(st.mechanics.gap))
+        return np.where(cs != 0, (wn > 0).astype(np.int64), -1)
 
     def _event_before(self, ph: Phase, old: CoupledState, name: str) -> float:
         if name == "volume":
@@ -693,6 +730,8 @@ class MDEMEngine:
             out[f"mech.{f}"] = np.asarray(getattr(ms, f))
         for k, v in self._rows.items():
             out[f"row.{k}"] = np.asarray(v, dtype=float)
+        if self._open_hist is not None:
+            out["open_hist.open"], out["open_hist.change"] = self._open_hist
         scal = {
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
@@ -736,6 +775,9 @@ class MDEMEngine:
         self._phase_v0 = tuple(scal["phase_v0"])
         self._retry = scal["retry"]
         self._running = bool(scal.get("running", False))
+        self._open_hist = ((arr["open_hist.open"].astype(np.int64),
+                            arr["open_hist.change"].astype(np.int64))
+                           if "open_hist.open" in arr else None)
         self.phases_out = scal["phases_out"]
         self.events = [tuple(e) for e in scal["events"]]
         self.status, self.messages = scal["status"], scal["messages"]

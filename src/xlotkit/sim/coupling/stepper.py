@@ -119,6 +119,19 @@ class CoupledControl:
         tolerance accepts the closure point to within a fraction of the closed crack's
         hydraulic aperture; the hydraulic aperture itself is the geometric gap whatever
         the branch, so the flow is unaffected. ``0``: the exact law only.
+    fold_factors : tuple of float
+        When a solve fails, the same structure is solved for steps ``k h`` (``k`` in
+        turn) from the same start and, once one converges, the step of ``h`` again from
+        that solution (:meth:`CoupledStepper._fold_predictor`: the filled branch of a
+        crack cell beyond a fold of the step's equations). ``()``: off.
+    crack_speed : float
+        Largest crack-tip speed [m/s] (a quasi-static model has no inertia to bound it;
+        a real crack runs at most at the Rayleigh-wave speed). Within one step of ``h``
+        the clusters that fail in a chain from this step's failures reach no farther
+        than ``crack_speed h`` (plus the cluster's own size) from the damage at the
+        step's start (failed clusters and clusters at the hole wall); overstressed
+        clusters beyond are left for the next step (``StepResult.deferred_failures``).
+        ``inf``: no limit (every overstressed cluster fails in the step).
     """
 
     max_newton: int = 60
@@ -139,6 +152,8 @@ class CoupledControl:
     continuation_newton: int = 25
     nonfinite_backoffs: int = 8
     contact_gap_rtol: float = 0.25
+    fold_factors: tuple = (4.0, 16.0)
+    crack_speed: float = math.inf
 
     def __post_init__(self) -> None:
         for k in ("max_newton", "failures_per_round", "max_failure_rounds", "chatter_flips",
@@ -152,6 +167,10 @@ class CoupledControl:
         if self.chatter not in ("freeze", "soft"):
             raise InputError(f"must be 'freeze' or 'soft', got {self.chatter!r}",
                              key="coupling.chatter")
+        if not self.crack_speed > 0:
+            raise InputError("must be > 0", key="coupling.crack_speed")
+        if not all(isinstance(k, (int, float)) and k > 1 for k in self.fold_factors):
+            raise InputError("must be numbers > 1", key="coupling.fold_factors")
         if not (math.isfinite(self.contact_gap_rtol) and self.contact_gap_rtol >= 0):
             raise InputError("must be >= 0", key="coupling.contact_gap_rtol")
         if not 0 < self.continuation_cut < 1:
@@ -306,6 +325,9 @@ class StepResult:
         Failed clusters after the step.
     continuation_levels : int
         Back-offs of the continuation in the step length (0: solved directly).
+    deferred_failures : int
+        Overstressed clusters left intact at the end of the step by the crack-speed
+        limit (``CoupledControl.crack_speed``); they fail in a later step.
     """
 
     success: bool
@@ -326,6 +348,7 @@ class StepResult:
     dp_w: float = float("nan")
     n_failed: int = 0
     continuation_levels: int = 0
+    deferred_failures: int = 0
 
 
 @dataclass(frozen=True)
@@ -426,6 +449,7 @@ class CoupledStepper:
         self.history: list[StepResult] = []
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
+        self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
 
     # ---------------------------------------------------------------- Newton
     def _scaled(self, res: CoupledResidual) -> tuple[float, float, float]:
@@ -777,6 +801,75 @@ class CoupledStepper:
             return x_done
         return x_done + (h - h_done) / (h_done - h_prev) * (x_done - x_prev)
 
+    def _within_reach(self, cand: np.ndarray, old: CoupledState, st: Structure,
+                      reach: float) -> np.ndarray:
+        """Which candidates may fail in this step under the crack-speed limit.
+
+        A candidate that shares an edge with a cluster failed earlier in this step
+        extends a crack within the step; it may fail only if one of its nodes lies within
+        ``reach`` of the damage at the step's start (the nodes of the clusters failed then
+        and of the hole wall): a cluster touching the old crack always may, the next one
+        out only if the crack may run that far in the step. Other candidates (initiations,
+        extensions of the old crack) are not limited.
+        """
+        model = self.model
+        mesh = model.mesh
+        if self._adjacency is None:
+            _, owners = mesh.edges()
+            inner = owners[:, 1] >= 0
+            self._adjacency = (owners[inner, 0], owners[inner, 1])
+        a, b = self._adjacency
+        failed_old = np.asarray(old.cluster_state) != INTACT
+        new = (np.asarray(st.cluster_state) != INTACT) & ~failed_old
+        ext = np.zeros(model.n_cells, dtype=bool)
+        ext[a[new[b]]] = True
+        ext[b[new[a]]] = True
+        keep = ~ext[cand]
+        if keep.all():
+            return keep
+        ref = np.zeros(mesh.n_nodes, dtype=bool)
+        ref[mesh.hole_nodes] = True
+        ref[mesh.triangles[failed_old].ravel()] = True
+        if not ref.any():
+            return keep
+        far = cand[~keep]
+        xn = mesh.nodes
+        pts = xn[mesh.triangles[far].ravel()]
+        d = np.min(np.hypot(pts[:, None, 0] - xn[None, ref, 0],
+                            pts[:, None, 1] - xn[None, ref, 1]), axis=1)
+        keep[~keep] = d.reshape(-1, 3).min(axis=1) <= reach
+        return keep
+
+    def _fold_predictor(self, x_start, old, h, st):
+        """Solve the step of ``h`` again from the solution of a longer step.
+
+        (See docs/coupling.md, "Hard cases".) A freshly failed, unfilled crack cell fills
+        with a positive feedback (its inflow grows with its opening, its opening with its
+        pressure); backward Euler's solution branch that starts at the old state (the cell
+        still unfilled) then ends at a fold ``h*`` of the step length, and a step just
+        beyond it has only the filled solution, far from the old state. The filled
+        solution of a longer step of the same structure is found from the old state; it
+        is the start for the step of ``h``.
+
+        Returns ``(ok, x, res, iterations, solves)``.
+        """
+        ctl = self.control
+        its = solves = 0
+        res = None
+        for k in ctl.fold_factors:
+            ok, _, xl, _, i, s = self._newton(x_start, old, h * k, False, st,
+                                              min(ctl.continuation_newton, ctl.max_newton))
+            its += i
+            solves += s
+            if not ok:
+                continue
+            ok, _, x, res, i, s = self._newton(xl, old, h, False, st, None)
+            its += i
+            solves += s
+            if ok:
+                return True, x, res, its, solves
+        return False, x_start, res, its, solves
+
     def _solve(self, dt: float, undrained: bool, max_new: int | None,
                max_dp_w: float | None, continuation: bool = False) -> StepResult:
         model, ctl = self.model, self.control
@@ -793,12 +886,20 @@ class CoupledStepper:
         # rounds at every level; the last level is h = dt, the step itself
         h, h_done, x_done, h_prev, x_prev = dt, 0.0, x, None, None
         levels = 0
+        deferred = 0
         while True:
             backoff = continuation and not undrained and levels < ctl.continuation_levels
+            x_start = x
             ok, reason, x, res, i, s = self._newton(
                 x, old, h, undrained, st, ctl.continuation_newton if backoff else None)
             its += i
             solves += s
+            if not ok and not undrained:
+                ok2, x2, res2, i, s = self._fold_predictor(x_start, old, h, st)
+                its += i
+                solves += s
+                if ok2:
+                    ok, reason, x, res = True, "converged", x2, res2
             rounds += 1
             if not ok:
                 if not backoff:
@@ -817,6 +918,11 @@ class CoupledStepper:
                 tens = intact & (mt >= 0.0)
                 shear = intact & ~tens & (ms >= 0.0)
                 cand = np.flatnonzero(tens | shear)
+                deferred = 0
+                if cand.size and math.isfinite(ctl.crack_speed):
+                    keep = self._within_reach(cand, old, st, ctl.crack_speed * h)
+                    deferred = int(np.sum(~keep))
+                    cand = cand[keep]
             if cand.size == 0:
                 if h >= dt:
                     break
@@ -874,7 +980,7 @@ class CoupledStepper:
         self.counters.failed_clusters += new_total
         r = StepResult(True, reason, its, solves, step_dt, t_new, new_failures=new_total,
                        failure_rounds=rounds, n_failed=self.state.n_failed,
-                       continuation_levels=levels, **diag)
+                       continuation_levels=levels, deferred_failures=deferred, **diag)
         self.history.append(r)
         return r
 

@@ -1,0 +1,152 @@
+"""Hard cases stay stable (issue 7): each runs the 2D engine on a small mesh through the
+case's difficulty and checks the invariants of :mod:`stability_harness` (finishes, mass
+balance <= 1e-8 every step, no aperture sign-flip oscillation, no wall-cluster failure
+layers, BHP on the well model while intact, no solver step below the floor), plus what
+makes the case what it is (the breakdown happened, the crack snapped off, ...).
+
+The meshes are the harness's 4 m square with a band along sigma_H (~960 triangles); a crack
+that runs from a breakdown into a whole well's storage is stopped at 1.5 m tip to tip,
+before it reaches the edge. Full sizes run in benchmarks/.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from stability_harness import (
+    assert_stable,
+    run,
+    scene_dict,
+)
+
+from xlotkit.sim.coupling.geometry import fracture_summary
+
+STOP = 1.5          # crack length [m] at which a breakdown into the whole well is stopped
+
+
+def _broke_down(r) -> None:
+    """The case reached its difficulty: a breakdown, a crack along sigma_H."""
+    e = r.engine
+    assert e.truth_events["breakdown_time"] is not None
+    fs = fracture_summary(e.cm, e.stepper.state)
+    assert fs.length > 0.5 and abs(fs.azimuth_deg) <= 10.0
+
+
+def _pump(rate: str, volume: str) -> dict:
+    return {"phase": [{"kind": "pump", "rate": rate, "volume": volume}]}
+
+
+def test_tight_brine_breakdown_into_the_whole_well():
+    """k = 1e-21 m^2: the crack cannot be fed by the matrix, only along itself, while the
+    2000 m well's compressed fluid (~70 l/MPa) drives it."""
+    r = run(scene_dict(rock={"permeability": 1e-21}, schedule=_pump("300 l/min", "1.2 m3")),
+            stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+def test_500_l_per_min_into_a_2000_m_well():
+    r = run(scene_dict(schedule=_pump("500 l/min", "1 m3")), stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+def test_tiny_segment_volume():
+    """No well storage: only the open hole's own fluid (~0.45 l/MPa with the hole's
+    enlargement), so every litre that enters the rock moves the pressure."""
+    r = run(scene_dict(rock={"permeability": 1e-20},
+                       effects={"strength_scaling": True, "well_storage": False},
+                       schedule={"phase": [{"kind": "pump", "rate": "5 l/min",
+                                            "duration": "5 min"}]}),
+            stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "wall-cluster failure layer (measured, docs/coupling.md 'Hard cases'): the coarse wall "
+    "clusters average the hoop stress over 0.1-0.18 m, so the first one fails only at "
+    "p_w = 47.6 MPa (33.8 MPa on the band mesh); at that pressure the intact wall is "
+    "overstressed out to +-37 deg, and the step that takes the crack past 1.4 m fails a third "
+    "wall cluster at the 180 deg mouth, 25.6 deg off the x axis, in its first failure round, "
+    "and 40 clusters across the 4 m domain (31 more deferred by the crack-speed limit), which "
+    "tilt the crack's axis to -5.2 deg and put the +24 deg wall cluster 29 deg off it"))
+def test_coarse_strongly_graded_mesh():
+    """Growth 1.8 from 0.1 m wall elements, no band: the crack runs into clusters that
+    double in size every other ring."""
+    r = run(scene_dict(mesh={"growth": 1.8, "wall_element_size": "0.1 m",
+                             "fracture_band": False},
+                       schedule=_pump("300 l/min", "3 m3")), stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+def test_heterogeneity_50_percent():
+    r = run(scene_dict(rock={"heterogeneity": 0.5},
+                       effects={"strength_scaling": True, "heterogeneity": True}, seed=3,
+                       schedule=_pump("300 l/min", "1 m3")), stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+def test_shear_dilation_on():
+    r = run(scene_dict(effects={"strength_scaling": True, "shear_dilation": True},
+                       schedule=_pump("300 l/min", "1 m3")), stop_length=STOP)
+    assert_stable(r)
+    _broke_down(r)
+
+
+def _two_cycles(flowback_rate: str, flowback_to: str) -> dict:
+    """Tight rock, the hole's own storage: breakdown and ~2 m of crack, shut-in, a choke
+    flowback, shut-in, a second pump-in that reopens the crack, shut-in."""
+    return scene_dict(
+        rock={"permeability": 1e-20},
+        effects={"strength_scaling": True, "well_storage": False},
+        schedule={"phase": [
+            {"kind": "pump", "rate": "5 l/min", "duration": "52 s"},
+            {"kind": "shut_in", "duration": "10 s"},
+            {"kind": "flowback", "initial_rate": flowback_rate,
+             "pressure_below": flowback_to},
+            {"kind": "shut_in", "duration": "10 s"},
+            {"kind": "pump", "rate": "5 l/min", "duration": "20 s"},
+            {"kind": "shut_in", "duration": "10 s"},
+        ]})
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the invariants hold (no sign flip since the engine repeats a step that reverses a "
+    "crack's open/closed change shorter), but the snap-off assertion does not (measured, "
+    "docs/coupling.md 'Hard cases'): at the end of the flowback (p_w = 24 MPa) the crack "
+    "is pinched shut near the well (cells at 25-28 MPa closed, at 0.25-0.33 m on one wing, "
+    "0.20-0.25 m on the other) and open beyond at 28.4-28.5 MPa, but the four failed wall "
+    "clusters at the mouth (d < 0.2 m, at p_w) are open by 0.04-0.18 mm and two clusters "
+    "at 0.28 and 0.33 m by 4.9 and 8.8 um, so 'closed at d < 0.35 m' fails"))
+def test_fast_flowback_snaps_the_fracture_off_near_the_well():
+    """Thesis 4.4.4: a flowback fast against the crack's conductivity closes the crack at
+    the mouth first, while its far part stays open and holds its fluid."""
+    r = run(_two_cycles("200 l/min", "24 MPa"))
+    assert_stable(r)
+    e = r.engine
+    fb = next(p for p in e.phases_out if p["kind"] == "flowback")
+    k = max(i for i, t in enumerate(r.t) if t <= fb["t_end"] + 1e-9)
+    is_open = r.crack_open[k]
+    d = np.hypot(*e.cm.mesh.centroids.T)
+    near = (is_open >= 0) & (d < 0.35)
+    far = (is_open >= 0) & (d > 0.6)
+    # snapped off: closed at the mouth, still open farther out
+    assert near.any() and not np.any(is_open[near] == 1)
+    assert np.any(is_open[far] == 1)
+
+
+def test_second_cycle_reopens_a_partly_closed_fracture():
+    """The first flowback stops just below sigma_h, so the crack is partly closed; the second
+    pump-in reopens it below the breakdown pressure and extends it."""
+    r = run(_two_cycles("20 l/min", "29 MPa"))
+    assert_stable(r)
+    e = r.engine
+    rows = e.rows()
+    c2 = [p for p in e.phases_out if p["cycle"] == 2 and p["kind"] == "pump"][0]
+    sel = (rows["t"] > c2["t_start"]) & (rows["t"] <= c2["t_end"])
+    assert np.max(rows["bottomhole_pressure"][sel]) < e.truth_events["fbp"] - 1e6
+    before = rows["fracture_length"][rows["t"] <= c2["t_start"]][-1]
+    assert rows["fracture_length"][sel][-1] > before
