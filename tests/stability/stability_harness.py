@@ -75,6 +75,8 @@ class StabilityRun:
     scheduled: list = field(default_factory=list)   # the step landed on a phase end/event
     mass_balance: list = field(default_factory=list)
     crack_open: list = field(default_factory=list)  # per cluster: 1 open, 0 closed, -1 intact
+    p: list = field(default_factory=list)           # cell pressures [Pa]
+    p_w: list = field(default_factory=list)         # well pressure [Pa]
     error: str = ""
     stopped: bool = False                            # ended by the crack-length stop
 
@@ -111,6 +113,8 @@ def run(data: dict, stop_length: float | None = None) -> StabilityRun:
             cs = st.cluster_state
             _, _, wn, _ = cm.crack_permeability(cs, np.asarray(st.mechanics.gap))
             out.crack_open.append(np.where(cs != 0, (wn > 0).astype(int), -1))
+            out.p.append(np.array(st.p))
+            out.p_w.append(float(st.p_w))
     except Exception as exc:  # noqa: BLE001 -- the invariant "finishes" reports it
         out.error = f"{type(exc).__name__}: {exc}"
     return out
