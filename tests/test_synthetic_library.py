@@ -32,11 +32,11 @@ NAMES = [e.name for e in entries(ROOT)]
 
 #: The picks that miss, by scene: (cycle, method) of a shut-in method that picks a closure
 #: in a shut-in ending above sigma_h. In these scenes the crack keeps growing after the
-#: pumps stop (fluid moves to its tip); the decline flattens when the growth stalls, which
-#: on the G plot looks like the end of a pressure-dependent-leak-off hump, i.e. closure
-#: (docs/synthetic-library.md, "Where the picks miss"). The flowback picks and the
-#: interpreter's consensus are right in every one of them (tested below). A change of this
-#: list, either way, is a change of the picks and must be looked at.
+#: pumps stop (fluid moves to its tip); the decline flattens when the growth slows, a
+#: lasting break of p vs G that the picker takes as closure (docs/synthetic-library.md,
+#: "Where the picks miss"). The flowback picks and the interpreter's consensus are right in
+#: every one of them (tested below). A change of this list, either way, is a change of the
+#: picks and must be looked at.
 FALSE_CLOSURE = {(1, m) for m in ("tangent", "sqrt_t", "g_function", "bilinear")}
 KNOWN_MISSES: dict[str, set[tuple[int, str]]] = {
     "03_anisotropy_high": FALSE_CLOSURE,
@@ -98,6 +98,24 @@ def test_false_shutin_closures_do_not_reach_the_consensus(evals, name):
         assert abs(c.errors["consensus"]) <= FLOWBACK_RTOL
         # the false picks are above sigma_h: the pressure where the crack's growth stalled
         assert all(c.errors[m] > 0 for (k, m) in KNOWN_MISSES[name] if k == cycle)
+
+
+def test_false_and_true_shutin_closures_break_the_opposite_way():
+    """The false closures are flattening breaks of the decline (the crack's growth slowing),
+    the one real shut-in closure (scene 09) a stiffening one (the crack's compliance
+    leaving the system): what a fix of the shut-in picks can use."""
+    from xlotkit.interpret.io import read_log
+    from xlotkit.pipeline import interpret_record
+
+    def signatures(name: str, cycle: int) -> set[str]:
+        e = entries(ROOT, [name])[0]
+        c = interpret_record(read_log(e.log_file)).picks.test_cycles[cycle - 1]
+        return {p.details.get("closure_signature") for m, p in c.fcp_methods().items()
+                if m in ("sqrt_t", "g_function") and p.found}
+
+    for name in KNOWN_MISSES:
+        assert signatures(name, 1) == {"flattening"}, name
+    assert signatures("09_perm_1e-16_shutin", 1) == {"stiffening"}
 
 
 def test_the_library_exercises_every_closure_rule(evals):
