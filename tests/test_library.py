@@ -12,7 +12,14 @@ from click.testing import CliRunner
 
 from xlotkit.cli import main
 from xlotkit.errors import InputError
-from xlotkit.library import build, compare, entries, evaluate, evaluation_markdown
+from xlotkit.library import (
+    build,
+    compare,
+    entries,
+    evaluate,
+    evaluation_markdown,
+    scenes_markdown,
+)
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -100,3 +107,41 @@ def test_cli_check_and_bad_input(lib, tmp_path):
     (tmp_path / "new" / "a" / "scene.toml").write_text("")
     with pytest.raises(InputError, match="not been simulated"):
         evaluate(entries(tmp_path / "new")[0])
+
+
+def test_surface_gauge_picks_are_taken_to_depth(lib, tmp_path):
+    """A cementing-unit (surface) log of the same test: the evaluation takes its picks to
+    depth with the interpreter's own column (the offset it used for sigma_h) and judges
+    closure there, so the flowback check passes as on the bottom-hole log."""
+    root = tmp_path / "lib"
+    (root / "surf").mkdir(parents=True)
+    text = (EXAMPLES / "scene_standard.toml").read_text()
+    (root / "surf" / "scene.toml").write_text(
+        text.replace("[output]\n", '[output]\ngauge = "surface"\n', 1))
+    build(root)
+    ev = evaluate(entries(root)[0])
+    ref = evaluate(entries(lib)[0])
+    assert ev.passed, (ev.failures, [c.failures for c in ev.cycles])
+    # the offset is the interpreter's static column: 1.2 sg over 2000 m TVD
+    assert ev.depth_offset == pytest.approx(1200 * 9.80665 * 2000, rel=1e-6)
+    assert ref.depth_offset == 0.0
+    c1, r1 = ev.cycles[0], ref.cycles[0]
+    assert c1.flowback_closure and r1.flowback_closure
+    # closure picked on the two gauges agrees to 1 %: the lumped model's column is
+    # compressible (heavier at depth than 1.2 sg) and the flowing column loses friction
+    assert c1.errors["flowback_sqrt_p"] == pytest.approx(r1.errors["flowback_sqrt_p"], abs=0.01)
+    # FBP and Pr are reported at depth
+    assert ev.fbp == pytest.approx(ref.fbp, rel=0.01)
+
+
+def test_scenes_table_and_cli_list(lib, tmp_path):
+    table = scenes_markdown(entries(lib))
+    truth = entries(lib)[0].truth()
+    assert table.startswith("| scene | title | status |")
+    row = table.splitlines()[2]
+    assert row.startswith("| std | ") and "| ok |" in row
+    assert f"{truth['realised_bar']['sigma_h']:.1f}" in row
+    r = CliRunner().invoke(main, ["library", "list", str(lib), "--markdown",
+                                  str(tmp_path / "s.md")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "s.md").read_text() == table

@@ -554,6 +554,30 @@ def library_check_cmd(root: str, names: tuple[str, ...], markdown: str | None) -
         sys.exit(1)
 
 
+@library_group.command("list")
+@click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
+@click.option("--only", "names", multiple=True, metavar="NAME",
+              help="Only this scene (repeatable).")
+@click.option("--markdown", "markdown", type=click.Path(dir_okay=False), default=None,
+              metavar="FILE", help="Also write the table to FILE (a new file only).")
+@_friendly_errors
+def library_list_cmd(root: str, names: tuple[str, ...], markdown: str | None) -> None:
+    """Table of the scenes of library ROOT from their stored truths: imposed and realised
+    sigma_h, sigma_H, T0, FBP, crack half-length, steps and wall time."""
+    from pathlib import Path
+
+    from xlotkit.atomic import atomic_write_text
+    from xlotkit.library import entries, scenes_markdown
+
+    if markdown is not None and Path(markdown).exists():
+        raise InputError("exists already; results are never written over", file=markdown,
+                         expected="a new file name")
+    table = scenes_markdown(entries(root, names or None))
+    click.echo(table)
+    if markdown is not None:
+        atomic_write_text(Path(markdown), table)
+
+
 @library_group.command("compare")
 @click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
 @click.option("--only", "names", multiple=True, metavar="NAME",

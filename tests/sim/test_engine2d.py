@@ -180,3 +180,50 @@ def test_a_well_at_rest_before_the_test_steps_through():
     assert e.stepper.counters.failed_steps == 0
     assert [p["cycle"] for p in e.phases_out] == [1, 1]
     assert e.events[0][1].startswith("cycle 1")
+
+
+def test_choke_flowback_with_pipe_friction():
+    """With ``effects.pipe_friction`` the choke sees the surface pressure after the returning
+    flow's friction (as in the lumped model): Q = zeta sqrt(p_s) with p_s below the static
+    column's surface pressure, and the rate's derivative (Newton's) is the true one."""
+    from xlotkit.sim.well import (
+        choke_surface_pressure,
+        friction_factor,
+        surface_from_bottomhole,
+    )
+
+    sc = scene_from_dict(_scene_dict(effects={"pipe_friction": True},
+                                     completion={"pipe_od": "0.0889 m", "pipe_id": "0.0760 m"}))
+    e = _run(sc)
+    assert e.column.friction
+    r = e.rows()
+    ph = [p for p in e.phases_out if p["kind"] == "flowback"][0]
+    sel = (r["t"] > ph["t_start"] + 1e-9) & (r["t"] <= ph["t_end"])
+    q, ps, pw = r["return_rate"][sel], r["surface_pressure"][sel], r["bottomhole_pressure"][sel]
+    # zeta is calibrated from the initial rate at the static surface pressure (as the lumped
+    # model does)
+    pw0 = float(np.interp(ph["t_start"], r["t"], r["bottomhole_pressure"]))
+    zeta = (300 / 60000) / math.sqrt(surface_from_bottomhole(pw0, 0.0, e.column))
+    # every step's return rate is the choke law at its surface pressure (round-off of the
+    # column's root search, 1e-9)
+    assert np.allclose(q, zeta * np.sqrt(ps), rtol=1e-9, atol=0)
+    static = np.array([surface_from_bottomhole(p, 0.0, e.column) for p in pw])
+    loss = static - ps
+    # the loss is Darcy-Weisbach friction of the return rate in the pipe bore (1.5 to 5 bar
+    # here); 3 %: the column integrates rho(p) and the rate's density change over 2000 m,
+    # the estimate takes rho0 throughout
+    col = e.column
+    area = math.pi * col.pipe_id ** 2 / 4
+    v = q / area
+    re = col.density * v * col.pipe_id / col.viscosity
+    f = np.array([friction_factor(x, col.roughness / col.pipe_id) for x in re])
+    darcy = f * col.length_md / col.pipe_id * col.density * v ** 2 / 2
+    assert loss == pytest.approx(darcy, rel=0.03)
+    assert np.min(loss) > 1e5
+    # Newton's dQ/dp_w against a central difference of the rate law (2 kPa)
+    e._ctx = {"kind": "flowback", "t0": 0.0, "rate": 0.0, "zeta": zeta, "steps": None}
+    p = float(pw[0])
+    qv, dq = e._well_rate(0.0, p)
+    assert -qv == pytest.approx(choke_surface_pressure(p, zeta, e.column)[1], rel=1e-12)
+    fd = (e._well_rate(0.0, p + 1e3)[0] - e._well_rate(0.0, p - 1e3)[0]) / 2e3
+    assert dq == pytest.approx(fd, rel=1e-4)

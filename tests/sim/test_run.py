@@ -315,3 +315,30 @@ def test_ctrl_c_tells_how_to_resume(tmp_path):
     assert proc.returncode == 130, err
     assert f"--out {out} --resume" in err and "Traceback" not in err
     assert (out / "checkpoint.npz").exists()
+
+
+def test_surface_gauge_log(standard, standard_run, tmp_path):
+    """``output.gauge = "surface"``: the log is what a cementing unit records, the surface
+    pressure channel of the same run with the same noise draw, referenced to surface; the
+    interpreter given the TVD takes its closure back to depth."""
+    sc = _with(standard, "output", gauge="surface")
+    r = simulate(sc, tmp_path / "surface")
+    ref = standard_run
+    assert r.record.reference == PressureReference(kind="surface", depth_m=0.0, absolute=False)
+    assert "surface_pressure" not in r.record.channels
+    # same engine run (same clean record), same noise seed: the gauge's pressure is the
+    # bottom-hole log's surface channel plus the same noise (to the gauge resolution)
+    assert np.array_equal(r.clean_record.pressure, ref.clean_record.pressure)
+    noise = ref.record.pressure - ref.clean_record.pressure
+    res = max(sc.output.resolution, 1.0)
+    assert np.allclose(r.record.pressure - noise, ref.clean_record.channels["surface_pressure"],
+                       rtol=0, atol=res)
+    log = read_log(r.paths["log"])
+    assert log.reference.kind == "surface"
+    # the bottom-hole gauge sits a fluid column below: about rho0 g TVD apart at rest
+    hyd = sc.fluid.density * 9.80665 * 2000.0
+    d0 = float(ref.record.pressure[0] - r.record.pressure[0])
+    assert d0 == pytest.approx(hyd, rel=0.01)
+    with pytest.raises(InputError, match="output.gauge"):
+        scene_from_dict({"output": {"gauge": "pump"}, "schedule": {"phase": [
+            {"kind": "pump", "rate": "500 l/min", "duration": "30 s"}]}})

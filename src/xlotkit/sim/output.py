@@ -39,8 +39,8 @@ import numpy as np
 
 from xlotkit import __version__
 from xlotkit.atomic import atomic_write, atomic_write_text
-from xlotkit.errors import XlotkitError
-from xlotkit.record import Record
+from xlotkit.errors import InputError, XlotkitError
+from xlotkit.record import PressureReference, Record
 
 __all__ = [
     "SERIES_COLUMNS",
@@ -50,6 +50,7 @@ __all__ = [
     "add_gauge_noise",
     "read_timeseries",
     "resample_record",
+    "surface_gauge_record",
     "synthetic_log",
     "write_pvd",
     "write_snapshot",
@@ -213,6 +214,30 @@ def synthetic_log(record: Record, *, interval: float, noise: float = 0.0,
     rec = resample_record(record, interval)
     rec = rec.replace(channels={k: v for k, v in rec.channels.items() if k in channels})
     return add_gauge_noise(rec, noise=noise, resolution=resolution, seed=seed)
+
+
+def surface_gauge_record(record: Record) -> Record:
+    """The record as the surface (cementing-unit) gauge measures it.
+
+    The pressure is the engine's ``surface_pressure`` channel (the bottom-hole pressure
+    carried up the fluid column with the rate of the moment, so pipe friction is in it when
+    the scene charges friction), the reference ``surface`` at 0 m; the channel itself is
+    dropped (it is now the pressure). Rates, volumes, density, events and metadata are
+    unchanged.
+
+    Raises
+    ------
+    InputError
+        If the record has no ``surface_pressure`` channel.
+    """
+    ps = record.channels.get("surface_pressure")
+    if ps is None:
+        raise InputError("the engine's record has no surface pressure", key="output.gauge",
+                         expected="'bottomhole'")
+    channels = {k: v for k, v in record.channels.items() if k != "surface_pressure"}
+    return record.replace(pressure=np.asarray(ps, dtype=float), channels=channels,
+                          reference=PressureReference(kind="surface", depth_m=0.0,
+                                                      absolute=False))
 
 
 # =========================================================================== HDF5

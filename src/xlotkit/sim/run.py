@@ -78,6 +78,7 @@ from xlotkit.sim.output import (
     TRUTH_QUANTITIES,
     Snapshot,
     check_rows,
+    surface_gauge_record,
     synthetic_log,
     write_pvd,
     write_snapshot,
@@ -227,7 +228,8 @@ class SimulationResult:
         The engine's record before gauge effects.
     truth : dict
         The engine's truth plus ``imposed`` and ``realised`` (sigma_h, sigma_H,
-        tensile_strength, pore_pressure).
+        tensile_strength, pore_pressure) and ``realised_detail`` (every quantity the
+        engine reports as realised, e.g. the 2D engine's stress range over the crack).
     paths : dict of str to Path
         ``dir``, ``scene``, ``scene_resolved``, ``timeseries``, ``log``, ``summary`` and,
         with snapshots, ``pvd``.
@@ -404,8 +406,13 @@ def _finish(scene: Scene, engine: Engine, res: Any, driver: dict[str, Any], targ
     truth_model = {k: v for k, v in res.truth.items() if k not in ("realised", "wall_time")}
     clean: Record = res.record
     out = scene.output
-    log = synthetic_log(clean, interval=out.log_interval, noise=out.noise,
-                        resolution=out.resolution, seed=scene.noise_seed)
+    if out.gauge == "surface":
+        log = synthetic_log(surface_gauge_record(clean), interval=out.log_interval,
+                            noise=out.noise, resolution=out.resolution,
+                            seed=scene.noise_seed, channels=())
+    else:
+        log = synthetic_log(clean, interval=out.log_interval, noise=out.noise,
+                            resolution=out.resolution, seed=scene.noise_seed)
     log = log.replace(meta={**log.meta, "source": f"xlotkit simulate ({engine.model})",
                             "scene": scene.title or (scene.source_file or "")})
     rows = check_rows(engine.rows())
@@ -446,7 +453,12 @@ def _finish(scene: Scene, engine: Engine, res: Any, driver: dict[str, Any], targ
     text = (f"{engine.model} model: {res.status}, {res.message}; "
             f"{len(log.t)} log samples over {float(log.t[-1]):.0f} s"
             + (f", FBP {float(fbp) / 1e5:.1f} bar" if fbp is not None else ""))
-    truth = {**truth_model, "imposed": imposed, "realised": realised}
+    # every realised quantity the engine reports (e.g. the 2D engine's stress range over
+    # the crack and its wall hoop stress), beyond the TRUTH_QUANTITIES kept above
+    detail = {k: float(v) for k, v in dict(res.truth.get("realised", {})).items()
+              if v is not None}
+    truth = {**truth_model, "imposed": imposed, "realised": realised,
+             "realised_detail": detail}
     return SimulationResult(status=res.status, message=res.message, model=engine.model,
                             record=log, clean_record=clean, truth=truth, paths=paths,
                             n_steps=int(driver["n_steps"]), resumed=resumed, wall_time=wall,

@@ -347,6 +347,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                                 doc="simulated time between field snapshots (models with "
                                     "a mesh; default none)"),
         "start_time": _k("datetime", optional=True, doc="clock time of t = 0 in the log"),
+        "gauge": _k("choice", choices=("bottomhole", "surface"),
+                    doc="gauge of the log's pressure: the bottom hole, or the surface "
+                        "(cementing unit: the bottom-hole pressure less the fluid column, "
+                        "and the pipe friction of the flow with effects.pipe_friction)"),
     },
     "lumped": {
         "fracture_geometry": _k("choice", choices=("penny", "kgd"),
@@ -774,6 +778,7 @@ class OutputOptions:
     seed: int | None = None
     snapshot_interval: float | None = None
     start_time: datetime | None = None
+    gauge: Literal["bottomhole", "surface"] = "bottomhole"
 
     def __post_init__(self) -> None:
         _validate(self, self.section)

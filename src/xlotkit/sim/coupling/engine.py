@@ -49,8 +49,10 @@ of the volume). Every accepted step has its relative mass-balance error checked 
 stepper (<= 1e-8).
 
 Truth: besides the scene's inputs, :meth:`MDEMEngine.result` reports what the model
-realised (``truth["realised"]``): the stress normal to the crack's plane in the in-situ
-state over the crack (what the crack closes against; see :meth:`MDEMEngine._realised`).
+realised (``truth["realised"]``): the stresses normal to and along the crack's plane in the
+in-situ state over the crack (what the crack closes against, and the far-field stress along
+it), the strength of the wall where it started, the wall's hoop stress (see
+:meth:`MDEMEngine._realised`).
 """
 
 from __future__ import annotations
@@ -106,7 +108,9 @@ from xlotkit.sim.schedule import Bleed, Flowback, Phase, Pump, ShutIn
 from xlotkit.sim.scene import Scene
 from xlotkit.sim.well import (
     Column,
+    bottomhole_from_surface,
     calibrate_choke,
+    choke_surface_pressure,
     hydrostatic_bottomhole,
     surface_from_bottomhole,
     well_compliance,
@@ -376,6 +380,8 @@ class MDEMEngine:
             return -float(ctx["rate"]), 0.0
         if kind == "flowback":
             zeta = float(ctx["zeta"])
+            if self.column.friction:
+                return self._choke_with_friction(p_w, zeta)
             ps = self._surface(p_w, 0.0)
             dp = 1.0
             ps2 = self._surface(p_w + dp, 0.0)
@@ -391,6 +397,29 @@ class MDEMEngine:
             qv, dq = q(ps)
             return -qv, -dq * dps
         return 0.0, 0.0
+
+    def _choke_with_friction(self, p_w: float, zeta: float) -> tuple[float, float]:
+        """``(Q, dQ/dp_w)`` of the choke when the returning flow loses pressure to pipe
+        friction on its way up: ``p_s`` solves ``p_w = p_bh(p_s, -zeta sqrt(p_s))``
+        (:func:`~xlotkit.sim.well.choke_surface_pressure`, as the lumped model does), and
+        ``dQ/dp_w = (dQ/dp_s) / (dp_bh/dp_s)`` with the column's total derivative taken by
+        a difference of 1 kPa in ``p_s``. Below :data:`_CHOKE_LINEAR` at surface the law is
+        the linearised one without friction (the rate is then a trickle)."""
+        ps, q = choke_surface_pressure(p_w, zeta, self.column)
+        if ps < _CHOKE_LINEAR:
+            ps = self._surface(p_w, 0.0)
+            if ps <= 0.0:
+                return 0.0, 0.0
+            k = zeta / math.sqrt(_CHOKE_LINEAR)
+            dps = self._surface(p_w + 1.0, 0.0) - ps
+            return -k * ps, -k * dps
+        dp = 1e3
+
+        def p_bh(p_s: float) -> float:
+            return bottomhole_from_surface(p_s, -zeta * math.sqrt(p_s), self.column)
+
+        dpbh = (p_bh(ps + dp) - p_bh(ps - dp)) / (2.0 * dp)
+        return -q, -(0.5 * zeta / math.sqrt(ps)) / dpbh
 
     def _pump_rate(self, t: float) -> float:
         ctx = self._ctx
@@ -826,15 +855,30 @@ class MDEMEngine:
     def _realised(self) -> dict[str, float]:
         """What the model realised, where it differs from the scene's input.
 
-        * ``sigma_h``, ``sigma_h_min``, ``sigma_h_max`` [Pa]: the stress normal to the
-          crack's plane that the model has where the crack ended up: the total stress of
-          the in-situ state (the drilled hole at the mud column, before pumping: far field,
-          Kirsch concentration, finite domain) resolved on the normal of the crack's
-          principal axis (:func:`~xlotkit.sim.coupling.geometry.fracture_summary`), area
-          weighted mean (and range) over the clusters of the hole-connected crack. This is
+        All from the in-situ state (the drilled hole at the mud column, before pumping: far
+        field, Kirsch concentration as the mesh resolves it, finite domain) over the
+        clusters of the hole-connected crack at the end of the run, with the crack's
+        principal axis (:func:`~xlotkit.sim.coupling.geometry.fracture_summary`) as its
+        plane:
+
+        * ``sigma_h``, ``sigma_h_min``, ``sigma_h_max`` [Pa]: the total stress normal to the
+          crack's plane, area-weighted mean (and range) over the crack's clusters. This is
           the stress the crack closes against; a closure pick is compared with it.
-        * ``tensile_strength`` [Pa] (with heterogeneity): mean strength of the crack's
-          clusters at the wall, where it started.
+        * ``sigma_H`` [Pa]: the total stress along the crack's plane, area-weighted over the
+          same clusters: the far-field stress parallel to the crack where the crack is (the
+          largest horizontal stress when the crack runs along sigma_H), with the hole's
+          radial-stress dip near the wall and the finite domain's disturbance. What
+          Eq. C.18/C.19 estimates is compared with it.
+        * ``tensile_strength`` [Pa]: the mean tensile strength of the crack's clusters at
+          the wall, where it started (the nominal strength, or the heterogeneous draw; the
+          crack-tip size scaling does not apply at the smooth wall). What T0 = FBP - Pr
+          estimates.
+        * ``wall_hoop_stress`` [Pa]: the total stress normal to the crack's plane in the
+          crack's wall clusters (mean), at the mud column ``initial_pressure``; the ideal
+          (Kirsch) wall value is ``3 sigma_h - sigma_H - p_mud``. A coarse wall resolves the
+          concentration only in a cluster average, which sets where the wall breaks down.
+        * ``fracture_azimuth_deg``, ``fracture_half_length`` [deg, m]: the crack's axis and
+          half its tip-to-tip length.
         """
         st = self.stepper.state
         cs = st.cluster_state
@@ -846,20 +890,25 @@ class MDEMEngine:
         fs = fracture_summary(self.cm, st)
         if connected.any() and math.isfinite(fs.azimuth_deg):
             az = math.radians(fs.azimuth_deg)
-            nx, ny = -math.sin(az), math.cos(az)
-            s0 = self._stress0[connected]
+            tx, ty = math.cos(az), math.sin(az)
+            nx, ny = -ty, tx
+            s0 = self._stress0
             sn = s0[:, 0] * nx * nx + s0[:, 1] * ny * ny + 2.0 * s0[:, 2] * nx * ny
+            sp = s0[:, 0] * tx * tx + s0[:, 1] * ty * ty + 2.0 * s0[:, 2] * tx * ty
             w = np.asarray(self.cm.mesh.areas)[connected]
-            out["sigma_h"] = float(np.sum(w * sn) / np.sum(w))
-            out["sigma_h_min"] = float(np.min(sn))
-            out["sigma_h_max"] = float(np.max(sn))
+            out["sigma_h"] = float(np.sum(w * sn[connected]) / np.sum(w))
+            out["sigma_h_min"] = float(np.min(sn[connected]))
+            out["sigma_h_max"] = float(np.max(sn[connected]))
+            out["sigma_H"] = float(np.sum(w * sp[connected]) / np.sum(w))
+            wall = connected & self._at_wall
+            if wall.any():
+                out["wall_hoop_stress"] = float(np.mean(sn[wall]))
             out["fracture_azimuth_deg"] = float(fs.azimuth_deg)
             out["fracture_half_length"] = 0.5 * float(fs.length)
-        if self.scene.effects.heterogeneity:
-            sel = cracked & self._at_wall
-            if sel.any():
-                out["tensile_strength"] = float(np.mean(
-                    np.asarray(self.cm.mechanics.tensile_strength)[sel]))
+        sel = cracked & self._at_wall
+        if sel.any():
+            out["tensile_strength"] = float(np.mean(
+                np.asarray(self.cm.mechanics.tensile_strength)[sel]))
         return out
 
 

@@ -1,0 +1,220 @@
+"""The synthetic XLOT library in data/synthetic (issue 7).
+
+Fast: every stored log is read and picked as a field log and checked against the realised
+stresses of its scene with issue 7's tolerances (:func:`xlotkit.library.evaluate`); the
+library spans what the issue asks for; the stored truths hold what the README promises; the
+tables in docs/synthetic-library.md and data/synthetic/README.md are the ones the stored
+files give. Slow: every scene is simulated again and its log compared with the stored one.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from xlotkit.library import (
+    FLOWBACK_RTOL,
+    SHUTIN_RTOL,
+    compare,
+    entries,
+    evaluate,
+    evaluation_markdown,
+    scenes_markdown,
+)
+from xlotkit.sim.coupling.engine import total_well_compliance
+from xlotkit.sim.scene import load_scene
+
+REPO = Path(__file__).resolve().parents[1]
+ROOT = REPO / "data" / "synthetic"
+NAMES = [e.name for e in entries(ROOT)]
+
+#: The picks that miss, by scene: (cycle, method) of a shut-in method that picks a closure
+#: in a shut-in ending above sigma_h. In these scenes the crack keeps growing after the
+#: pumps stop (fluid moves to its tip); the decline flattens when the growth slows, a
+#: lasting break of p vs G that the picker takes as closure (docs/synthetic-library.md,
+#: "Where the picks miss"). The flowback picks and the interpreter's consensus are right in
+#: every one of them (tested below). A change of this list, either way, is a change of the
+#: picks and must be looked at.
+FALSE_CLOSURE = {(1, m) for m in ("tangent", "sqrt_t", "g_function", "bilinear")}
+KNOWN_MISSES: dict[str, set[tuple[int, str]]] = {
+    "03_anisotropy_high": FALSE_CLOSURE,
+    "04_stress_high": FALSE_CLOSURE - {(1, "bilinear")},
+    "07_perm_1e-19": FALSE_CLOSURE,
+    "14_heterogeneity": FALSE_CLOSURE,
+}
+
+_FALSE = re.compile(r"cycle (\d+): (\w+) picked closure at .* in a shut-in that ends above")
+
+
+@pytest.fixture(scope="module")
+def evals():
+    return {e.name: evaluate(e) for e in entries(ROOT)}
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    return {e.name: load_scene(e.scene_file) for e in entries(ROOT)}
+
+
+# ----------------------------------------------------------------------------- picks
+@pytest.mark.parametrize("name", NAMES)
+def test_picks_against_the_realised_stresses(evals, name):
+    ev = evals[name]
+    assert not ev.failures, ev.failures
+    assert len(ev.cycles) == 2, "every scene is a two-cycle test"
+    misses = set()
+    for c in ev.cycles:
+        if c.flowback_closure:
+            # issue 7: the system-stiffness picks within 3 % of the realised sigma_h
+            for m in ("flowback_sqrt_p", "flowback_p_v"):
+                assert abs(c.errors[m]) <= FLOWBACK_RTOL, (c.cycle, m, c.errors)
+        if c.closure_in_shutin is True:
+            # issue 7: every shut-in method that picks, within 5 %
+            for m in ("tangent", "sqrt_t", "g_function", "bilinear", "compliance"):
+                if m in c.errors:
+                    assert abs(c.errors[m]) <= SHUTIN_RTOL, (c.cycle, m, c.errors)
+        for f in c.failures:
+            hit = _FALSE.match(f)
+            assert hit, f"{name}: an unexpected kind of miss: {f}"
+            misses.add((int(hit.group(1)), hit.group(2)))
+        if c.closure_in_shutin is False and not any(k[0] == c.cycle for k in misses):
+            # "no closure": no shut-in method picked one
+            assert not {"tangent", "sqrt_t", "g_function", "bilinear",
+                        "compliance"} & set(c.errors), (c.cycle, c.errors)
+    assert misses == KNOWN_MISSES.get(name, set())
+
+
+@pytest.mark.parametrize("name", sorted(KNOWN_MISSES))
+def test_false_shutin_closures_do_not_reach_the_consensus(evals, name):
+    """Where shut-in methods pick a closure that is not there, the interpreter's consensus
+    (flowback first) still lands within the flowback tolerance of sigma_h."""
+    ev = evals[name]
+    for cycle, _ in KNOWN_MISSES[name]:
+        c = ev.cycles[cycle - 1]
+        assert c.closure_in_shutin is False
+        assert c.flowback_closure
+        assert abs(c.errors["consensus"]) <= FLOWBACK_RTOL
+        # the false picks are above sigma_h: the pressure where the crack's growth stalled
+        assert all(c.errors[m] > 0 for (k, m) in KNOWN_MISSES[name] if k == cycle)
+
+
+def test_false_and_true_shutin_closures_break_the_opposite_way():
+    """The false closures are flattening breaks of the decline (the crack's growth slowing),
+    the one real shut-in closure (scene 09) a stiffening one (the crack's compliance
+    leaving the system): what a fix of the shut-in picks can use."""
+    from xlotkit.interpret.io import read_log
+    from xlotkit.pipeline import interpret_record
+
+    def signatures(name: str, cycle: int) -> set[str]:
+        e = entries(ROOT, [name])[0]
+        c = interpret_record(read_log(e.log_file)).picks.test_cycles[cycle - 1]
+        return {p.details.get("closure_signature") for m, p in c.fcp_methods().items()
+                if m in ("sqrt_t", "g_function") and p.found}
+
+    for name in KNOWN_MISSES:
+        assert signatures(name, 1) == {"flattening"}, name
+    assert signatures("09_perm_1e-16_shutin", 1) == {"stiffening"}
+
+
+def test_the_library_exercises_every_closure_rule(evals):
+    cycles = [c for ev in evals.values() for c in ev.cycles]
+    # a shut-in through closure, judged by the 5 % rule with picks present
+    assert any(c.closure_in_shutin is True and "g_function" in c.errors for c in cycles)
+    # a shut-in that ends above sigma_h, judged by the "no closure" rule
+    assert sum(c.closure_in_shutin is False for c in cycles) >= 5
+    # flowbacks through closure (the system-stiffness rule)
+    assert sum(c.flowback_closure for c in cycles) >= 20
+
+
+# ----------------------------------------------------------------------------- span
+def test_the_library_spans_the_issue(scenes, evals):
+    assert len(scenes) >= 12
+    assert all(s.resolved_model == "mdem" for s in scenes.values())
+    assert all(ev.truth["status"] == "ok" for ev in evals.values())
+    st = [s.stresses for s in scenes.values()]
+    ratio = [s.sigma_H / s.sigma_h for s in st]
+    assert min(ratio) <= 1.1 and max(ratio) >= 1.5
+    assert min(s.sigma_h for s in st) <= 20e6 and max(s.sigma_h for s in st) >= 40e6
+    k = [s.rock.permeability for s in scenes.values()]
+    assert min(k) <= 1e-21 and max(k) >= 1e-17
+    rates = {ph.rate for s in scenes.values() for _, ph in s.schedule.expanded()
+             if ph.kind == "pump"}
+    assert min(rates) <= 250 / 60000 + 1e-12 and max(rates) >= 1000 / 60000 - 1e-12
+    cw = [total_well_compliance(s) for s in scenes.values()]
+    assert max(cw) / min(cw) > 2.5
+    kinds = [[ph.kind for _, ph in s.schedule.expanded()] for s in scenes.values()]
+    # cycles closed by a flowback, and a cycle watched through closure in a shut-in only
+    assert any("flowback" in k for k in kinds)
+    assert any(k.count("flowback") == 1 for k in kinds)
+    eff = [s.effects for s in scenes.values()]
+    assert any(e.heterogeneity for e in eff)
+    assert any(e.interface for e in eff)
+    assert any(e.pipe_friction for e in eff) and not all(e.pipe_friction for e in eff)
+    assert {s.output.gauge for s in scenes.values()} == {"bottomhole", "surface"}
+
+
+def test_truths_hold_imposed_realised_and_the_command(evals):
+    for name, ev in evals.items():
+        t = ev.truth
+        assert t["command"] == f"xlotkit simulate data/synthetic/{name}/scene.toml --out DIR"
+        assert t["library_command"] == (
+            f"xlotkit library build data/synthetic --only {name} --replace")
+        assert t["wall_time_s"] > 0 and t["max_mass_balance_error"] <= 1e-8
+        imp, rea, mt = t["imposed_bar"], t["realised_bar"], t["model_truth"]
+        for key in ("sigma_h", "sigma_H", "tensile_strength", "pore_pressure"):
+            assert key in imp and key in rea
+        # the realised sigma_h is the crack's mean normal stress: within its range over the
+        # crack, at or just above the far field (the hole's concentration near the wall)
+        assert mt["sigma_h_min_bar"] <= rea["sigma_h"] <= mt["sigma_h_max_bar"]
+        assert imp["sigma_h"] <= rea["sigma_h"] <= 1.01 * imp["sigma_h"], name
+        # the crack runs along sigma_H and inside its 20 m strip
+        assert abs(mt["fracture_azimuth_deg"]) < 1.0
+        assert mt["fracture_half_length_m"] < 20.0
+        # the stress along the crack is the far-field sigma_H less the radial-stress dip
+        # near the wall, averaged over the crack: within 1 %
+        assert rea["sigma_H"] == pytest.approx(imp["sigma_H"], rel=0.01)
+        # the wall's hoop stress (a cluster average) and the mud column it was taken at
+        assert mt["wall_hoop_stress_bar"] > 0 and mt["initial_pressure_bar"] > imp[
+            "pore_pressure"]
+        if name != "14_heterogeneity":
+            assert rea["tensile_strength"] == imp["tensile_strength"]
+    het = evals["14_heterogeneity"].truth["realised_bar"]["tensile_strength"]
+    # +-25 % heterogeneity: the wall broke in clusters whose mean strength is not nominal
+    assert het != 30.0 and 22.5 <= het <= 37.5
+
+
+def test_stored_files_are_small_and_only_the_three(evals):
+    for e in entries(ROOT):
+        assert sorted(p.name for p in e.folder.iterdir()) == ["log.csv", "scene.toml",
+                                                              "truth.json"]
+        # 1 s logs: well under 100 kB each (no HDF5 or VTU in the repository)
+        assert e.log_file.stat().st_size < 100_000
+
+
+def test_the_documented_tables_are_the_stored_ones(evals):
+    """docs/synthetic-library.md and data/synthetic/README.md hold the tables that the stored
+    logs and truths give now (`xlotkit library check data/synthetic --markdown FILE`,
+    `xlotkit library list data/synthetic --markdown FILE`)."""
+    doc = (REPO / "docs" / "synthetic-library.md").read_text()
+    assert evaluation_markdown([evals[n] for n in NAMES]) in doc, (
+        "docs/synthetic-library.md is out of date: paste `xlotkit library check "
+        "data/synthetic --markdown FILE`")
+    readme = (ROOT / "README.md").read_text()
+    assert scenes_markdown(entries(ROOT)) in readme, (
+        "data/synthetic/README.md is out of date: paste `xlotkit library list data/synthetic "
+        "--markdown FILE`")
+    for name in NAMES:
+        assert f"`{name}`" in readme
+
+
+# ----------------------------------------------------------------------------- slow
+@pytest.mark.slow
+def test_regenerated_logs_are_the_stored_ones():
+    """Every scene simulated again (~20 min): the same samples and pressures to 1 Pa (the
+    log's 0.01 bar resolution is 1000 Pa; same scene and seed give the same numbers)."""
+    out = compare(ROOT)
+    assert [c.entry.name for c in out] == NAMES
+    bad = [(c.entry.name, c.message) for c in out if not c.same]
+    assert not bad, bad
