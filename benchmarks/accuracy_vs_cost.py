@@ -107,8 +107,13 @@ def _mpa(v) -> float:
     return float(v) / 1e6
 
 
-def run_one(data: dict, work: Path) -> dict:
-    """Simulate a scene dict, pick its log; wall time and the cycle-1 picks [Pa]."""
+class OverBudget(Exception):
+    """A run went past its CPU budget (``--max-cpu``)."""
+
+
+def run_one(data: dict, work: Path, max_cpu: float = math.inf) -> dict:
+    """Simulate a scene dict, pick its log; wall time and the cycle-1 picks [Pa]. A run
+    past ``max_cpu`` CPU seconds is stopped (:class:`OverBudget`)."""
     from xlotkit.interpret.io import read_log
     from xlotkit.pipeline import interpret_record
     from xlotkit.sim.run import simulate
@@ -116,7 +121,11 @@ def run_one(data: dict, work: Path) -> dict:
 
     scene = scene_from_dict(data)
     t0, c0 = time.perf_counter(), time.process_time()
-    res = simulate(scene, work)
+    def budget(_frac: float, _msg: str) -> None:
+        if time.process_time() - c0 > max_cpu:
+            raise OverBudget(f"stopped after {max_cpu:g} s CPU")
+
+    res = simulate(scene, work, progress=budget)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
     interp = interpret_record(read_log(res.paths["log"]))
@@ -228,6 +237,11 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=None, help="variant names")
     ap.add_argument("--out", default=str(ROOT / "results" / "accuracy-vs-cost"))
     ap.add_argument("--write-docs", action="store_true")
+    ap.add_argument("--reuse", default=None, metavar="RESULTS.json",
+                    help="take the variants already in this results.json (of the same base "
+                         "scene and code) and run only the others")
+    ap.add_argument("--max-cpu", type=float, default=1800.0,
+                    help="stop a variant after this many CPU seconds (reported as failed)")
     args = ap.parse_args()
 
     from xlotkit.atomic import fresh_output_dir
@@ -242,12 +256,16 @@ def main() -> None:
         todo = {n: todo[n] for n in ["reference", *args.only] if n in todo}
     out = fresh_output_dir(args.out)
     results: dict[str, dict] = {}
+    reused = json.loads(Path(args.reuse).read_text()) if args.reuse else {}
     for name, (group, over) in todo.items():
+        if name in reused:
+            results[name] = reused[name]
+            continue
         data = merge(base, over)
         print(f"{name} ...", flush=True)
         with tempfile.TemporaryDirectory() as tmp:
             try:
-                r = run_one(data, Path(tmp) / "run")
+                r = run_one(data, Path(tmp) / "run", args.max_cpu)
             except Exception as exc:  # noqa: BLE001 -- a failing variant is a result too
                 r = {"wall_s": math.nan, "cpu_s": math.nan, "status": "failed", "model": "",
                      "message": f"{type(exc).__name__}: {exc}", "picks": {}}
