@@ -16,6 +16,7 @@ from xlotkit.interpret.picks.core import (
     consensus_fcp,
     pick_cycle,
     pick_record,
+    reconcile_closures,
 )
 from xlotkit.interpret.picks.types import Pick
 
@@ -169,3 +170,75 @@ def test_later_cycle_gets_reopening_not_lop():
     second = pick_cycle(rec, cyc, previous=first)
     assert second.get("Pr") is not None and second.get("LOP") is None
     assert second.get("FBP") is None
+
+
+# ----------------------------------------------------------------------- reconcile
+def _pump_shut_flow():
+    ph = (Phase("pump", 0, 10, 0.0, 9.0), Phase("shut_in", 10, 20, 10.0, 19.0),
+          Phase("flowback", 20, 30, 20.0, 29.0))
+    return Cycle(1, "xlot", ph, 0.0, 29.0, 3.5e7, 0.5, 0.4)
+
+
+def _shut(method, value, signature=None, ratio=None):
+    p = fcp(method, value)
+    d = {} if signature is None else {"closure_signature": signature, "slope_ratio": ratio}
+    return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details=d)
+
+
+def _flow(method, value, ratio):
+    p = fcp(method, value)
+    key = "slope_ratio" if method == "flowback_sqrt_p" else "stiffness_ratio"
+    return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details={key: ratio})
+
+
+def test_a_flattening_shutin_break_above_a_flowback_closure_is_rejected():
+    # The flowback sees the crack open below the shut-in's break: the crack cannot have
+    # closed in the shut-in (one monotonic decline), so the flattening break is not closure.
+    picks = [_shut("sqrt_t", 307.5, "flattening", 0.36), _shut("bilinear", 306.0),
+             _flow("flowback_sqrt_p", 300.4, 13.7), _flow("flowback_p_v", 300.5, 13.8)]
+    out, notes = reconcile_closures(picks, _pump_shut_flow())
+    by = {p.method: p for p in out}
+    assert not by["sqrt_t"].found and not by["bilinear"].found
+    assert by["sqrt_t"].details["rejected_value"] == pytest.approx(307.5 * BAR)
+    assert "still open" in by["sqrt_t"].message and "flattening" in by["sqrt_t"].message
+    assert by["flowback_sqrt_p"].found and by["flowback_p_v"].found
+    assert len(notes) == 2
+    # and the consensus is then the flowback's
+    assert consensus_fcp(out).value == pytest.approx(300.4 * BAR)
+
+
+def test_a_stiffening_shutin_closure_overrules_a_weaker_flowback_break():
+    picks = [_shut("g_function", 301.0, "stiffening", 3.2), _flow("flowback_sqrt_p", 286.2, 1.18),
+             _flow("flowback_p_v", 288.3, 1.26)]
+    out, _ = reconcile_closures(picks, _pump_shut_flow())
+    by = {p.method: p for p in out}
+    assert by["g_function"].found
+    assert not by["flowback_sqrt_p"].found and not by["flowback_p_v"].found
+    assert "started with the fracture closed" in by["flowback_p_v"].message
+    # ... and a stronger flowback wins over a weaker stiffening
+    picks[1:] = [_flow("flowback_sqrt_p", 286.2, 8.0)]
+    out, _ = reconcile_closures(picks, _pump_shut_flow())
+    assert [p.found for p in out] == [False, True]
+
+
+def test_reconcile_leaves_agreeing_unrelated_and_user_fixed_picks_alone():
+    cyc = _pump_shut_flow()
+    # overlapping intervals: the two halves see the same closure
+    agree = [_shut("sqrt_t", 301.0, "flattening", 0.5), _flow("flowback_sqrt_p", 300.5, 10.0)]
+    assert reconcile_closures(agree, cyc) == (agree, [])
+    # a break the other flowback method does not see is no evidence; equal (none): both kept
+    lone = [_shut("sqrt_t", 110.0, "flattening", 0.5), _flow("flowback_sqrt_p", 48.0, 2.3),
+            Pick.not_found("FCP", "flowback_p_v", "only one straight line",
+                           details={"single_line": True})]
+    out, notes = reconcile_closures(lone, cyc)
+    assert out == lone and "both kept" in notes[0]
+    # a fixed window keeps the pick, with a note
+    bad = [_shut("sqrt_t", 307.5, "flattening", 0.36), _flow("flowback_sqrt_p", 300.4, 13.7)]
+    out, notes = reconcile_closures(bad, cyc, fixed={"sqrt_t"})
+    assert out == bad and "fixed by the user" in notes[0]
+    # pumping between shut-in and flowback: two declines, nothing to reconcile
+    ph = cyc.phases
+    pumped = Cycle(1, "xlot", (ph[0], ph[1], Phase("pump", 20, 22, 20.0, 21.0),
+                               Phase("flowback", 22, 30, 22.0, 29.0)), 0.0, 29.0, 3.5e7, 0.5,
+                   0.4)
+    assert reconcile_closures(bad, pumped) == (bad, [])

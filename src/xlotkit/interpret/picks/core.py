@@ -40,6 +40,31 @@ Consensus FCP
    lows, max of the highs). Quality: ``good`` with >= 3 methods whose values lie within 5 % of
    the median, ``fair`` with >= 2 methods, ``poor`` with one method or only poor inputs.
 3. Nothing found: not found, with each method's reason in ``message``.
+
+One fracture state between shut-in and flowback
+-----------------------------------------------
+A cycle's shut-in and the flowback that follows it (no pumping between) are one monotonic
+decline, so the fracture closes in at most one of them. When both find a closure and the
+flowback's lies entirely below the shut-in's, they contradict each other: the flowback's
+break says the fracture was still open when the shut-in ended, the shut-in's says it had
+closed. :func:`reconcile_closures` keeps the side with the stronger closure evidence and
+turns the other side's contradicting picks into "not found" with the reason (their values
+stay in ``details["rejected_value"]``):
+
+* the flowback's evidence is its stiffness contrast (closed / open slope, ``slope_ratio`` or
+  ``stiffness_ratio``: the fracture's compliance leaving the system);
+* the shut-in's is the stiffening of its slope break (``slope_ratio`` of a ``"stiffening"``
+  break, the same compliance leaving). A *flattening* break carries none: it is how
+  leak-off dropping at closure looks, but also how a crack that grows on after shut-in
+  looks once the growth slows (the well pressure falls as fluid runs into new crack), so
+  it cannot outweigh a measured stiffness rise;
+* a flowback break that the other flowback method, run on the same flowback, does not see
+  (one straight line) is uncorroborated and counts as no evidence.
+
+With equal evidence (none on either side) both sides are kept and a note says so.
+
+Picks whose window or tangents the user fixed are never rejected (a note records the
+contradiction).
 """
 
 from __future__ import annotations
@@ -68,6 +93,7 @@ __all__ = [
     "RecordPicks",
     "consensus_fcp",
     "pick_cycle",
+    "reconcile_closures",
     "pick_record",
 ]
 
@@ -236,6 +262,114 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
                 message=f"median of {', '.join(names)}",
                 details={"rule": rule, "methods": names,
                          "spread": float(values.max() - values.min())})
+
+
+# --------------------------------------------------------------------------- reconcile
+def _contrast(p: Pick) -> float:
+    """A found closure pick's evidence of the fracture's compliance leaving the system: the
+    closed/open slope ratio of a flowback pick or of a stiffening shut-in break; 0 for a
+    flattening break or a method that reports no signature."""
+    d = p.details or {}
+    if p.method in FLOWBACK_METHODS:
+        r = d.get("slope_ratio", d.get("stiffness_ratio"))
+    elif d.get("closure_signature") == "stiffening":
+        r = d.get("slope_ratio")
+    else:
+        r = None
+    return float(r) if isinstance(r, (int, float, np.floating)) and np.isfinite(r) else 0.0
+
+
+def _adjacent_shutin_flowback(cycle: Cycle) -> bool:
+    """Whether the cycle's flowback follows its shut-in with no pumping in between."""
+    sh, fb = cycle.phase("shut_in"), cycle.phase("flowback")
+    if sh is None or fb is None or fb.t_start < sh.t_end - 1e-9:
+        return False
+    return not any(ph.kind == "pump" and sh.t_end - 1e-9 <= ph.t_start < fb.t_start
+                   for ph in cycle.phases)
+
+
+def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] | None = None
+                       ) -> tuple[list[Pick], list[str]]:
+    """Make the shut-in and flowback closure picks of a cycle agree on one closure.
+
+    Rule in the module docstring ("One fracture state between shut-in and flowback").
+
+    Parameters
+    ----------
+    picks : sequence of Pick
+        A cycle's picks (any names; only found FCP picks take part).
+    cycle : Cycle
+    fixed : set of str, optional
+        Methods whose window or tangents the user fixed: never rejected.
+
+    Returns
+    -------
+    picks : list of Pick
+        The picks, the contradicting side's FCP picks replaced by not-found picks.
+    notes : list of str
+        What was rejected and why (empty when nothing was).
+    """
+    fixed = fixed or set()
+    picks = list(picks)
+    if not _adjacent_shutin_flowback(cycle):
+        return picks, []
+    shut = [p for p in picks if p.name == "FCP" and p.found and p.method in SHUTIN_METHOD_NAMES]
+    flow = [p for p in picks if p.name == "FCP" and p.found and p.method in FLOWBACK_METHODS]
+    if not shut or not flow:
+        return picks, []
+
+    def lo(p: Pick) -> float:
+        return p.low if p.low is not None else p.value
+
+    def hi(p: Pick) -> float:
+        return p.high if p.high is not None else p.value
+
+    # The flowback's closure interval: where the stiffness rose.
+    f_hi, f_lo = max(hi(p) for p in flow), min(lo(p) for p in flow)
+    s_lo = min(lo(p) for p in shut if lo(p) > f_hi) if any(lo(p) > f_hi for p in shut) else None
+    if s_lo is None:
+        return picks, []              # the two sides overlap: no contradiction
+    # A flowback method that ran and saw one straight line contradicts the other's break:
+    # uncorroborated, the break cannot overrule the shut-in (e.g. a choke or surface-line
+    # effect on the sqrt(p) plot that the returned volume does not show).
+    contradicted = any(p.name == "FCP" and not p.found and p.method in FLOWBACK_METHODS
+                       and (p.details or {}).get("single_line") for p in picks)
+    c_flow = 0.0 if contradicted else max(_contrast(p) for p in flow)
+    c_shut = max(_contrast(p) for p in shut)
+    if c_flow == c_shut:
+        return picks, [f"the shut-in finds closure at {s_lo / 1e5:.1f} bar or above and the "
+                       f"flowback after it at {f_hi / 1e5:.1f} bar or below; neither has the "
+                       "stronger evidence of the fracture's compliance leaving, both kept"]
+    if c_flow > c_shut:
+        # The flowback saw the fracture open below these: no closure in the shut-in.
+        losers = {p.method for p in shut if lo(p) > f_hi}
+        why = (f"the flowback that follows finds closure at {f_hi / 1e5:.1f} bar or below "
+               f"(system stiffness x{c_flow:.3g}), so the fracture was still open when the "
+               "shut-in ended")
+        if c_shut == 0.0:
+            why += ("; the shut-in's break is a flattening one (continued growth or a change "
+                    "of leak-off, not the fracture's compliance leaving)")
+    else:
+        losers = {p.method for p in flow if hi(p) < s_lo}
+        why = (f"the shut-in before it closed the fracture at {s_lo / 1e5:.1f} bar or above "
+               f"(stiffening x{c_shut:.3g}, stronger than this break's x{c_flow:.3g}), so the "
+               "flowback started with the fracture closed")
+    out, notes = [], []
+    for p in picks:
+        if p.name == "FCP" and p.found and p.method in losers:
+            if p.method in fixed:
+                notes.append(f"{p.method}: kept (window/tangents fixed by the user) although "
+                             f"{why}")
+                out.append(p)
+                continue
+            notes.append(f"{p.method}: closure at {p.value / 1e5:.1f} bar rejected: {why}")
+            out.append(Pick.not_found(
+                "FCP", p.method, f"closure at {p.value / 1e5:.1f} bar rejected: {why}",
+                window=p.window, details={**(p.details or {}), "rejected_value": p.value,
+                                          "rejected_low": p.low, "rejected_high": p.high}))
+        else:
+            out.append(p)
+    return out, notes
 
 
 # --------------------------------------------------------------------------- cycle picks
@@ -492,6 +626,10 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
                               window=options.window(ci, m), tangents=options.tangent(ci, m)))
     elif any(m in wanted for m in FLOWBACK_METHODS):
         notes.append("no flowback phase: flowback closure methods not run")
+    fixed = {m for m in FCP_METHODS
+             if options.window(ci, m) is not None or options.tangent(ci, m) is not None}
+    picks, why = reconcile_closures(picks, cycle, fixed=fixed)
+    notes.extend(why)
     s, se, src = _stiffness(record, cycle, picks)
     return CyclePicks(cycle, tuple(picks), ref, s, se, src, notes=tuple(notes))
 

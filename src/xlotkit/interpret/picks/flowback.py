@@ -102,6 +102,10 @@ __all__ = [
 #: Method names produced by :func:`pick_fcp_flowback`, in the order they are returned.
 FLOWBACK_METHODS = ("flowback_sqrt_p", "flowback_p_v")
 
+#: How a flowback pick's message starts when the decline is one straight line (the method
+#: ran on enough data and saw no stiffness change); such a pick has ``details["single_line"]``.
+ONE_LINE = "only one straight line"
+
 # Fewest samples allowed on each tangent; below this the fit covariance is meaningless.
 _MIN_POINTS = 5
 # Smallest ratio of closed / open slopes accepted as a stiffness change. Fracture compliance
@@ -303,7 +307,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
             return "two-line fit did not converge"
         ratio = s2 / s1 if s1 != 0 else np.inf
         if f_stat < _MIN_F or not (s1 < 0 and s2 < 0) or ratio < _MIN_RATIO:
-            return (f"only one straight line (slope ratio {ratio:.3g}, F={f_stat:.3g}): "
+            return (f"{ONE_LINE} (slope ratio {ratio:.3g}, F={f_stat:.3g}): "
                     "no stiffness increase, the flowback either ended above closure or "
                     "started with the fracture already closed")
         # The hinge is in x; express the break in u (time) for the windows. Both abscissae
@@ -408,6 +412,7 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
                                "choke_source": choke.source, "flowing_samples": flow_how}
     res = _two_lines(tt, tt, y, tangents=tangents)
     if isinstance(res, str):
+        details["single_line"] = res.startswith(ONE_LINE)
         return Pick.not_found(name, method, res, window=win, details=details)
 
     rec_p = record.pressure[sl][keep]
@@ -484,6 +489,7 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
                               window=win, details=details)
     res = _two_lines(tt, vv, pp, tangents=tangents)
     if isinstance(res, str):
+        details["single_line"] = res.startswith(ONE_LINE)
         return Pick.not_found(name, method, res, window=win, details=details)
     value = float(res.y)
     spread = window_spread([yi for _, yi in res.trials])
