@@ -23,6 +23,7 @@ import argparse
 import copy
 import json
 import math
+import re
 import shutil
 import sys
 import tempfile
@@ -173,12 +174,24 @@ def table(results: dict) -> str:
         cells = ["failed" if errs[n][q] is None else f"{100 * errs[n][q]:.2f} %"
                  for q in QUANTITIES]
         on = ", ".join(q for q in QUANTITIES if n in front[q])
-        lines.append(f"| {n} | {r['group']} | {r.get('model', '')} | {r[COST]:.1f} | "
-                     f"{r['wall_s']:.1f} | " + " | ".join(cells) + f" | {on} |")
+        lines.append(f"| {n} | {r['group']} | {r.get('model', '')} | {_cost_cell(r)} | "
+                     f"{_num(r['wall_s'])} | " + " | ".join(cells) + f" | {on} |")
     lines.append("")
     lines.append("Reference picks: " + ", ".join(
         f"{q} {ref[q] / 1e5:.2f} bar" if ref.get(q) else f"{q} –" for q in QUANTITIES))
     return "\n".join(lines) + "\n"
+
+
+def _num(v: float) -> str:
+    return f"{v:.1f}" if math.isfinite(v) else "–"
+
+
+def _cost_cell(r: dict) -> str:
+    """The CPU seconds, or what stopped the run (``--max-cpu``) or made it fail."""
+    if math.isfinite(r[COST]):
+        return f"{r[COST]:.1f}"
+    m = re.search(r"stopped after (\S+) s CPU", r.get("message", ""))
+    return f"> {m.group(1)} (stopped)" if m else "– (failed)"
 
 
 def errors(results: dict) -> dict[str, dict[str, float | None]]:
