@@ -9,6 +9,10 @@ Two small scenes:
 * breakdown (3 m square, 248 triangles, a band along sigma_H, crack-tip strength scaling,
   well compliance 2 l/MPa, 300 l/min from 39 MPa): breakdown at ~40.6 MPa and the first
   0.2 m - 0.7 m of the crack run, where the partitioned schemes are stressed.
+
+And WFC through a crack's closure (a small copy of the standard 2D scene: the crack strip
+closes as a smooth joint), where the controller's rate once drained the closed segment far
+below the well and the engine's cut steps sharpened the controller instead of refining it.
 """
 
 from __future__ import annotations
@@ -33,10 +37,13 @@ from xlotkit.sim.output import read_timeseries
 from xlotkit.sim.run import make_engine, simulate
 from xlotkit.sim.scene import scene_from_dict
 from xlotkit.sim.wellcoupling import (
+    ControllerMemory,
     CouplingOptions,
     SegmentModel,
+    SegmentStep,
     SegmentStepFailed,
     WellLoad,
+    well_coupled_step,
 )
 
 # the monolithic engine's test scene (same folder: pytest puts it on sys.path)
@@ -284,11 +291,14 @@ def test_balance_of_each_scheme(intact_runs):
         assert got == pytest.approx(seg.injected * h, rel=1e-7), c
 
 
-def test_partitioned_checkpoint_resume_is_bit_identical(intact_runs):
-    sc, ref = intact_runs["wfdmod"]
+@pytest.mark.parametrize("coupling", ["wfdmod", "wfc"])
+def test_partitioned_checkpoint_resume_is_bit_identical(intact_runs, coupling):
+    # WFDmod's memory is its loss rate; WFC's its rate with the compliance and step it
+    # was set for (_step_wfc): a resume that lost any of them would step differently
+    sc, ref = intact_runs[coupling]
     e = make_engine(sc)
     e.start()
-    for _ in range(40):                   # into the shut-in: WFDmod's memory is in use
+    for _ in range(40):                   # into the shut-in: the memory is in use
         e.step()
     saved = {k: (v if isinstance(v, str) else np.array(v)) for k, v in e.state().items()}
     e2 = make_engine(sc)
@@ -497,3 +507,161 @@ def test_balance_through_breakdown(breakdown, wfc_breakdown):
         acc = [x for x in stp.history if x.success]
         err = sum(x.mass_balance_error for x in acc)
         assert abs(err) <= 1e-8 * sum(abs(x.injected_mass) for x in acc)
+
+
+# =========================================================================== WFC on adaptive steps
+class _LinearSegment:
+    """A segment of fixed compliance ``c`` [m^3/Pa per m] without losses: ``p' = p + q dt /
+    c``. Records the rates it is given."""
+
+    def __init__(self, c: float) -> None:
+        self.c = c
+        self.storage = c
+        self.inflows: list[float] = []
+
+    def step(self, s, dt, *, inflow, **kw):
+        self.inflows.append(inflow)
+        p = s.pressure + inflow * dt / self.c
+        return SegmentStep(state=_P(p), pressure=p, volume=inflow * dt, leak_volume=0.0,
+                           solves=1, compliance=self.c)
+
+
+@dataclasses.dataclass(frozen=True)
+class _P:
+    pressure: float
+
+
+def _wfc_step(c_seg, memory, dt, p_w=31e6, p_s=30e6):
+    """One WFC step of the linear segment under a 6.7e-9 m^3/Pa per m well (shut in,
+    incompressible storage); returns (rate sent, segment pressure change, change of the
+    mismatch p_w - p_s)."""
+    seg = _LinearSegment(c_seg)
+    well = WellSide2D(6.7e-9, 3e-11, 0.0, 0.0)
+    out = well_coupled_step("wfc", well, seg, _P(p_s), p_w, dt, 0.0, memory,
+                            CouplingOptions(), pumping=False)
+    assert seg.inflows == [pytest.approx(out.volume / dt, rel=1e-12)]
+    dp = out.state.pressure - p_s
+    return seg.inflows[0], dp, (out.well_pressure - out.state.pressure) - (p_w - p_s)
+
+
+def test_wfc_gain_of_a_shortened_step_is_spread_over_the_planned_step():
+    c = 5e-11                       # a closed crack: the borehole's own storage and wall
+    opt = CouplingOptions()
+    c_eff = 6.7e-9 * c / (6.7e-9 + c)
+    mem = ControllerMemory(segment_rate=1e-6, segment_compliance=c, rate_compliance=c,
+                           rate_step=1.0)
+    q_long, dp_long, _ = _wfc_step(c, mem, 1.0)
+    # Eq. 4.19 on the step the rate was set for: carried rate damped + gain on 1 MPa
+    assert q_long == pytest.approx(1e-6 / (1 + opt.wfc_damping)
+                                   + opt.wfc_gain * c_eff * 1e6 / 1.0, rel=1e-12)
+    # the same step cut to the 1e-4 s floor is a part of it: the planned rate, so it does
+    # 1e-4 of what the long step does (the gain over dt made the rate 1e4 times larger
+    # and the cut step as long in pressure as the whole one)
+    q_cut, dp_cut, _ = _wfc_step(c, mem, 1e-4)
+    assert q_cut == pytest.approx(q_long, rel=1e-12)
+    # dp is a difference of ~2e7 Pa pressures: ~1e-16 of 2e7 over a 27 Pa change is
+    # ~1e-10 relative round-off, hence 1e-9 (the 1/dt rate it guards against is 1e4 off)
+    assert dp_cut == pytest.approx(1e-4 * dp_long, rel=1e-9)
+    # a longer step than planned: Eq. 4.19 as it stands (the gain over the step)
+    q_grow, _, _ = _wfc_step(c, mem, 2.0)
+    assert q_grow == pytest.approx(1e-6 / (1 + opt.wfc_damping)
+                                   + opt.wfc_gain * c_eff * 1e6 / 2.0, rel=1e-12)
+
+
+def test_wfc_rate_set_for_an_open_crack_is_scaled_when_the_segment_stiffens():
+    c_open, c_closed, c_w = 5e-9, 5e-11, 6.7e-9
+    opt = CouplingOptions()
+
+    def c_eff(c):
+        return c_w * c / (c_w + c)
+
+    q0 = -2e-4                      # withdrawing from an open crack during a flowback
+    gain = opt.wfc_gain * c_eff(c_closed) * 1e6 / 1.0
+    # the last step found the crack closed (c_seg stiff), the rate was set for it open:
+    # carried with its pressure effect kept, not 100 times that
+    mem = ControllerMemory(segment_rate=q0, segment_compliance=c_closed,
+                           rate_compliance=c_open, rate_step=1.0)
+    q, dp, de = _wfc_step(c_closed, mem, 1.0)
+    assert q == pytest.approx(q0 * c_eff(c_closed) / c_eff(c_open) / (1 + opt.wfc_damping)
+                              + gain, rel=1e-12)
+    # on the mismatch (e' - e = -q dt / c_eff) the carried rate does what it meant on the
+    # open segment (less the damping) and the gain closes its quarter of the 1 MPa;
+    # unscaled, the carried rate alone would have dropped the closed segment by 3.8 MPa
+    assert de == pytest.approx(-q0 / (1 + opt.wfc_damping) / c_eff(c_open)
+                               - opt.wfc_gain * 1e6, rel=1e-9)
+    assert abs(dp) < 0.5e6
+    # a softer segment than the rate was set for keeps the rate (it only lags)
+    mem = ControllerMemory(segment_rate=q0, segment_compliance=c_open,
+                           rate_compliance=c_closed, rate_step=1.0)
+    q, _, _ = _wfc_step(c_open, mem, 1.0)
+    assert q == pytest.approx(q0 / (1 + opt.wfc_damping)
+                              + opt.wfc_gain * c_eff(c_open) * 1e6, rel=1e-12)
+
+
+def _closure_dict(**over):
+    """The standard 2D scene in small (8 m square, 282 triangles: the crack strip of the
+    fracture plane, strength scaling) with a 10 l/MPa well from 31 MPa: pump 60 l through
+    breakdown, shut in 30 s, flow back through the crack's closure (~27-30 MPa) to 26 MPa."""
+    d = {
+        "title": "WFC through closure, small", "model": "mdem", "coupling": "wfc",
+        "geometry": {"domain_size": "8 m", "hole_radius": "0.15 m",
+                     "segment_height": "10 m"},
+        "mesh": {"growth": 1.5, "wall_element_size": "0.0785 m", "fracture_band": True,
+                 "band_width": "1 m", "band_element_size": "0.5 m", "band_length": "5 m",
+                 "band_strip": True},
+        "rock": {"youngs_modulus": "10 GPa", "poisson_ratio": 0.25,
+                 "tensile_strength": "3 MPa", "toughness": "1 MPa*m**0.5",
+                 "cohesion": "10 MPa", "friction_angle": "30 deg",
+                 "fracture_friction_angle": "0 deg", "porosity": 0.1,
+                 "permeability": 1e-18},
+        "stresses": {"sigma_H": "40 MPa", "sigma_h": "30 MPa", "sigma_H_azimuth": "0 deg",
+                     "pore_pressure": "20 MPa"},
+        "fluid": {"density": "1.2 sg", "viscosity": "1 cP"},
+        "completion": {"depth": "2000 m", "well_compliance": 1e-8,
+                       "initial_pressure": "31 MPa"},
+        "effects": {"well_storage": True, "strength_scaling": True, "fracture_plane": True},
+        "numerics": {"dt_min": "1e-4 s", "dt_max": "5 s", "dp_max": "0.5 MPa"},
+        "schedule": {"phase": [
+            {"kind": "pump", "rate": "300 l/min", "volume": "0.06 m3"},
+            {"kind": "shut_in", "duration": "30 s"},
+            {"kind": "flowback", "initial_rate": "100 l/min", "pressure_below": "26 MPa"},
+        ]},
+    }
+    for k, v in over.items():
+        d[k] = {**d.get(k, {}), **v} if isinstance(v, dict) else v
+    return d
+
+
+@pytest.fixture(scope="module")
+def wfc_closure():
+    sc = scene_from_dict(_closure_dict())
+    e = make_engine(sc)
+    e.start()
+    outcomes = []
+    while not e.is_done():
+        outcomes.append(e.step().reason)
+    return sc, e, outcomes
+
+
+def test_wfc_through_closure_keeps_the_segment_with_the_well(wfc_closure):
+    sc, e, outcomes = wfc_closure
+    assert e.result().status == "ok"
+    assert [p["end"] for p in e.phases_out] == ["volume", "duration", "pressure_below"]
+    r = e.rows()
+    mis = r["well_pressure"] - r["segment_pressure"]
+    # Before the fix, measured: the carried rate drained the closed segment to -20 MPa
+    # (50 MPa below the well), the crack-reversal rule then cut to the 1e-4 s floor 21
+    # times, where the gain over dt sent 1e4 times the planned rate. Now measured: the
+    # segment stays >= 26.1 MPa, 3.8 MPa off the well at most, at breakdown (the lag WFC
+    # is known for), and no step reaches the floor
+    assert r["segment_pressure"].min() > sc.stresses.pore_pressure
+    after = r["t"] > e.phases_out[0]["t_end"]                 # shut-in and flowback
+    assert np.max(np.abs(mis[after])) < 2e6
+    assert np.min(np.diff(r["t"])) > 10 * sc.numerics.dt_min
+    assert not any("crack reversal" in o for o in outcomes)
+    c = e.stepper.coupling
+    assert c.failed_segment_calls == 0                    # no Newton from wild pressures
+    assert c.segment_calls == c.steps                     # WFC: one call per step
+    # the coupling rule cut the steps in which the segment closed (measured 11 times)
+    assert c.driven_away_steps >= 1
+    assert np.all(r["mass_balance_error"][1:] <= 1e-8)

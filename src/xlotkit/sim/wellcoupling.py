@@ -481,7 +481,9 @@ class CouplingOptions:
         Normalised WFC gain ``G`` [-]: each step the rate into the segment changes by
         ``G c_eff (p_w - p_s) / dt`` (the sum of the thesis's per-step errors is the present
         mismatch; ``c_eff`` the series compliance of well and segment), i.e. ``G`` times the
-        volume that would equalise the two pressures, spread over one step.
+        volume that would equalise the two pressures, spread over one step (with adaptive
+        steps, over the step the carried rate was set for when the present one is shorter:
+        :func:`_step_wfc`).
     wfc_damping : float
         WFC damping ``gamma`` (Eq. 4.22; thesis example 0.05).
     wfdmod_gain, wfdmod_damping : float
@@ -872,6 +874,8 @@ class _Ctl:
     q_lo: float = 0.0          # last actual loss rate of the segment (Q_LO)
     q_t2: float | None = None  # WFC: last rate into the segment
     c_seg: float = 0.0         # segment pump-in compliance for the gains (Eq. 4.11)
+    c_rate: float = 0.0        # WFC: the c_seg q_t2 was set with (0: not known)
+    dt_rate: float = 0.0       # WFC: the step q_t2 was set for (0: not known)
 
     def report(self, s: SegmentState, r: SegmentStep) -> None:
         """Calibrate the segment compliance from the step just taken, Eq. 4.11:
@@ -910,11 +914,20 @@ class ControllerMemory:
     segment_compliance : float
         ``c_seg`` calibrated from the last step (Eq. 4.11) [m^3/Pa per m], which scales
         the gains.
+    rate_compliance : float
+        WFC: the ``c_seg`` that ``segment_rate`` was set with [m^3/Pa per m] (0: not
+        known, e.g. a checkpoint written before it was kept; the carried rate is then not
+        rescaled, see :func:`_step_wfc`).
+    rate_step : float
+        WFC: the step ``segment_rate`` was set for [s] (0: not known; the gain is then
+        spread over the present step, as on fixed steps).
     """
 
     loss_rate: float = 0.0
     segment_rate: float | None = None
     segment_compliance: float = 0.0
+    rate_compliance: float = 0.0
+    rate_step: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -1004,11 +1017,13 @@ def well_coupled_step(strategy: Strategy, well: WellSide, segment: SegmentModel,
         raise InputError(f"unknown coupling strategy {strategy!r}", key="strategy",
                          expected=", ".join(STRATEGIES))
     ctl = _Ctl(q_lo=memory.loss_rate, q_t2=memory.segment_rate,
-               c_seg=memory.segment_compliance)
+               c_seg=memory.segment_compliance, c_rate=memory.rate_compliance,
+               dt_rate=memory.rate_step)
     p_new, s_new, vol, calls, solves = _STEPPERS[strategy](
         well, segment, state, p_w, dt, q_surf, ctl, options, pumping)
     return WellCoupledStep(p_new, s_new, vol, calls, solves,
-                           ControllerMemory(ctl.q_lo, ctl.q_t2, ctl.c_seg))
+                           ControllerMemory(ctl.q_lo, ctl.q_t2, ctl.c_seg, ctl.c_rate,
+                                            ctl.dt_rate))
 
 
 def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None,
@@ -1268,15 +1283,48 @@ def _step_wfc(well: _Well, seg: SegmentModel, s: SegmentState, p_w: float, dt: f
     the roots lie on the unit circle for ``0 < G < 4`` and the rate oscillates for ever
     (thesis Fig. A.6); with damping they shrink to ``|z| = sqrt(a)``, at the price of a
     steady mismatch ``gamma Q_T2 dt / ((1 + gamma) G c_eff)``. The first step uses the base
-    rate of Eq. 4.9/4.10; the well then follows Eq. 4.20/4.21."""
+    rate of Eq. 4.9/4.10; the well then follows Eq. 4.20/4.21.
+
+    That analysis holds for a fixed step on a fixed compliance. A driver with adaptive
+    steps (the 2D engine, :mod:`xlotkit.sim.coupling.partitioned`) breaks the first, a
+    crack that closes the second; two readings keep the controller what it is there:
+
+    * **The gain is spread over the step it was planned for.** The carried ``Q_T2`` was
+      set for a step ``dt_r`` (the memory's ``rate_step``); a shorter step (a cut after a
+      rejected trial, a step repeated shorter, one shortened to land on a phase end or an
+      event) is a part of that step, so the gain term divides by ``max(dt, dt_r)``, not by
+      ``dt``. Otherwise the correction ``G c_eff (p_w - p_s)`` is made whole in however
+      short a step: the rate grows as ``1/dt`` (at a 1e-4 s floor step, thousands of
+      times the pump rate), a shortened step does not do less than the long one, and the
+      engine's rules that cut a step to resolve an event cannot resolve anything. On
+      fixed or growing steps ``max(dt, dt_r) = dt``: Eq. 4.19 as it stands.
+    * **A rate set for a softer segment is scaled to the stiffer one.** The carried rate
+      moved the segment by ``Q_T2 dt / c_eff`` for the ``c_seg`` it was set with (the
+      memory's ``rate_compliance``); when the last step calibrated a stiffer segment (a
+      crack that closed: ``c_seg`` falls from the crack's to the borehole's own storage,
+      two to three orders of magnitude in 2D) the same rate would move it that many times
+      further, draining the closed segment far below the well (tens of MPa per step,
+      below the pore pressure). The carried rate is multiplied by
+      ``min(1, c_eff(c_seg) / c_eff(c_rate))``: its pressure effect is kept. A softer
+      segment (a crack that opened) keeps the rate: that only lags, and the gain term
+      makes it up. With a fixed compliance the factor is 1."""
     if ctl.q_t2 is None:
         q_t2 = q_surf * well.c_s / well.c_tot                    # Eq. 4.9/4.10
     else:
-        q_t2 = (ctl.q_t2 / (1.0 + opt.wfc_damping)
-                + opt.wfc_gain * _c_eff(well.c_w, ctl.c_seg) * (p_w - s.pressure) / dt)
+        c_eff = _c_eff(well.c_w, ctl.c_seg)
+        carried = ctl.q_t2
+        if ctl.c_rate > 0.0:
+            # keep the carried rate's pressure effect when the segment stiffened
+            carried *= min(1.0, c_eff / _c_eff(well.c_w, ctl.c_rate))
+        # a step shorter than the one the rate was set for gets the planned rate
+        tau = max(dt, ctl.dt_rate)
+        q_t2 = (carried / (1.0 + opt.wfc_damping)
+                + opt.wfc_gain * c_eff * (p_w - s.pressure) / tau)
     p_new = well.advance(p_w, dt, q_surf, q_t2)                  # Eq. 4.20/4.21
     r = seg.step(s, dt, inflow=q_t2)
     ctl.q_t2 = q_t2
+    ctl.c_rate = ctl.c_seg          # what the rate was set with, before recalibrating
+    ctl.dt_rate = dt
     ctl.report(s, r)
     return p_new, r.state, r.volume, 1, r.solves
 

@@ -42,7 +42,8 @@ the solution of a longer step; clusters fail in a chain within a step no farther
 Rayleigh-wave speed allows), the Newton and well-pressure-change (``numerics.dp_max``)
 rules, a floor ``dt_min`` and a ceiling ``dt_max``. A step that reverses a crack's
 open/closed change of the previous step is repeated shorter (docs/coupling.md, "Hard
-cases"). Phase ends on time
+cases"). A subclass may add a rule of its own (:meth:`MDEMEngine._reject_step`; the
+partitioned engine's coupling rule). Phase ends on time
 and on volume at a known rate are landed on exactly; pressure ends and flowback volumes are
 located by repeating the step shorter (secant on the crossing) until within 10 kPa (or 0.1 %
 of the volume). Every accepted step has its relative mass-balance error checked by the
@@ -599,6 +600,13 @@ class MDEMEngine:
             stp.state = old
             self._h = max(h_try * 0.5 * float(num.dp_max) / abs(r.dp_w), num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: pressure change")
+        why = self._reject_step(old, stp.state) if r.success and not at_floor else None
+        if why:
+            # a rule of a subclass (the partitioned engine's coupling rule); at the floor
+            # every rule is waived, so a run cannot end on it
+            stp.state = old
+            self._h = max(h_try * self.tsc.cut, num.dt_min)
+            return MDEMStepOutcome(False, t, "rejected: " + why)
         if not r.success:
             if at_floor:
                 raise XlotkitError(
@@ -667,6 +675,13 @@ class MDEMEngine:
             self._end_phase(reason)
             return MDEMStepOutcome(True, new.t, "phase end: " + reason)
         return MDEMStepOutcome(True, new.t, "accepted")
+
+    def _reject_step(self, old: CoupledState, new: CoupledState) -> str | None:
+        """A further rule on an accepted trial from ``old`` to ``new`` (above the floor):
+        the reason to reject it and repeat it shorter (cut by ``TimeStepControl.cut``), or
+        None to keep it. The monolithic engine has none; see
+        :meth:`xlotkit.sim.coupling.partitioned.PartitionedMDEMEngine._reject_step`."""
+        return None
 
     def _crack_open(self, st: CoupledState) -> np.ndarray:
         """Per cluster: 1 open crack, 0 closed crack, -1 intact."""

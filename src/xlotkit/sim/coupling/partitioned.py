@@ -25,6 +25,19 @@ pressure of the log, phase ends, the choke); the segment's borehole pressure is 
 MDEM cut the step inside the coupling loop; it is counted and named in the outcome, and only
 a failure at ``dt_min`` ends the run (as for the monolithic engine).
 
+One rule is the partitioned engine's own (:meth:`PartitionedMDEMEngine._reject_step`): a
+step that drives the segment's pressure away from the well's is rejected and repeated
+shorter (``numerics.dp_max`` is the tolerance; above the floor only, as the engine's other
+rules). An explicit scheme (WFC, WFDmod after pumping) sets its rate from the last step's
+compliance and mismatch; when the segment changes within the step (a crack that closes
+under a withdrawal, a closed crack pressed by a rate set for an open one) the rate moves it
+past the well and on, tens of MPa in a step, and the next steps' Newton solves start from
+pressures far off (and under the pore pressure). A shorter step sends proportionally less
+(the WFC gain of a shortened step is spread over the planned one,
+:func:`xlotkit.sim.wellcoupling._step_wfc`), so repeating it shorter resolves the change as
+the engine resolves a crack's opening or closing. WFD, which matches the pressures to its
+tolerance, meets the rule only where it could not converge.
+
 The well side (:class:`WellSide2D`)
 -----------------------------------
 Per unit height of the slab (``H = h``, the segment height: the slab is the open hole, as in
@@ -159,6 +172,10 @@ class CouplingCounters:
         calibration solves).
     tangent_solves : int
         Linear solves for the segment's tangent compliance (controller gains).
+    driven_away_steps : int
+        Coupled steps the engine rejected because they drove the segment's pressure away
+        from the well's (:meth:`PartitionedMDEMEngine._reject_step`; counted in
+        ``steps`` too: the segment call itself converged).
     """
 
     steps: int = 0
@@ -167,6 +184,7 @@ class CouplingCounters:
     failed_segment_calls: int = 0
     extra_iterations: int = 0
     tangent_solves: int = 0
+    driven_away_steps: int = 0
 
 
 # =========================================================================== well side
@@ -497,6 +515,46 @@ class PartitionedMDEMEngine(MDEMEngine):
             seg, well, self.strategy, self.options, WellCoupledState.of(s0, plain.p_w, mem),
             rate=self._well_rate, phase_kind=lambda: str(self._ctx["kind"]))
 
+    def _reject_step(self, old: CoupledState, new: CoupledState) -> str | None:
+        """The coupling rule: reject a step that drove the segment away from the well.
+
+        With ``e = p_w - p_s`` (well BHP less the segment's borehole pressure) at the start
+        (``e0``) and end (``e1``) of the step, ``dp_s`` the segment's pressure change and
+        ``V`` the volume the well sent it, the step is rejected when all of
+
+        * ``|e1| > max(|e0|, numerics.dp_max)``: the mismatch grew, beyond the largest
+          pressure change a step may make;
+        * ``dp_s e1 < 0``: the segment's pressure moved away from the well's (down and
+          ends below it, or up and ends above it);
+        * ``V dp_s > 0``: it moved the way the coupling's volume pushed it. A segment that
+          breaks down drops while it is being filled: that is the model's answer to the
+          rate, the crack's, not the coupling's overshoot, and a shorter step would not
+          make it smaller.
+
+        Failed clusters do not exempt a step, unlike the engine's pressure-change rule: a
+        drained borehole fails clusters around it, which must not let the drain through.
+
+        Parameters
+        ----------
+        old, new : WellCoupledState
+            The states before and after the step.
+
+        Returns
+        -------
+        str or None
+            ``"segment driven away from the well"``, or None to keep the step.
+        """
+        stp = self.stepper
+        e0 = old.p_w - float(old.segment_pressure)
+        e1 = new.p_w - float(new.segment_pressure)
+        dps = float(new.segment_pressure) - float(old.segment_pressure)
+        vol = stp.segment_state(new).injected - stp.segment_state(old).injected
+        if (abs(e1) > max(abs(e0), float(self.scene.numerics.dp_max)) and dps * e1 < 0.0
+                and vol * dps > 0.0):
+            stp.coupling.driven_away_steps += 1
+            return "segment driven away from the well"
+        return None
+
     def _push_row(self, st: CoupledState, *, q: float, mb: float) -> None:
         super()._push_row(st, q=q, mb=mb)
         self._seg_rows.append(float(st.flow.p_w))
@@ -518,6 +576,7 @@ class PartitionedMDEMEngine(MDEMEngine):
         out["wc.json"] = json.dumps({
             "well_pressure": st.well_pressure, "loss_rate": m.loss_rate,
             "segment_rate": m.segment_rate, "segment_compliance": m.segment_compliance,
+            "rate_compliance": m.rate_compliance, "rate_step": m.rate_step,
             "leaked": seg.leaked, "injected": seg.injected,
             "boundary_outflow": seg.boundary_outflow,
             "coupling": dataclasses.asdict(self.stepper.coupling)})
@@ -538,7 +597,10 @@ class PartitionedMDEMEngine(MDEMEngine):
         plain = stp.state.coupled()
         seg = stp.segment.wrap(plain, leaked=w["leaked"], injected=w["injected"],
                                boundary_outflow=w["boundary_outflow"])
-        mem = ControllerMemory(w["loss_rate"], w["segment_rate"], w["segment_compliance"])
+        # rate_compliance / rate_step: 0 (not known) in checkpoints written before they
+        # were kept
+        mem = ControllerMemory(w["loss_rate"], w["segment_rate"], w["segment_compliance"],
+                               w.get("rate_compliance", 0.0), w.get("rate_step", 0.0))
         stp.state = WellCoupledState.of(seg, w["well_pressure"], mem)
         stp.coupling = CouplingCounters(**w["coupling"])
         self._seg_rows = seg_rows
