@@ -324,11 +324,12 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
     def hi(p: Pick) -> float:
         return p.high if p.high is not None else p.value
 
-    # The flowback's closure interval: where the stiffness rose.
-    f_hi, f_lo = max(hi(p) for p in flow), min(lo(p) for p in flow)
-    s_lo = min(lo(p) for p in shut if lo(p) > f_hi) if any(lo(p) > f_hi for p in shut) else None
-    if s_lo is None:
+    # Top of the flowback's closure interval, and the shut-in picks entirely above it
+    f_hi = max(hi(p) for p in flow)
+    above = [lo(p) for p in shut if lo(p) > f_hi]
+    if not above:
         return picks, []              # the two sides overlap: no contradiction
+    s_lo = min(above)
     # A flowback method that ran and saw one straight line contradicts the other's break:
     # uncorroborated, the break cannot overrule the shut-in (e.g. a choke or surface-line
     # effect on the sqrt(p) plot that the returned volume does not show).
@@ -347,8 +348,9 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
                f"(system stiffness x{c_flow:.3g}), so the fracture was still open when the "
                "shut-in ended")
         if c_shut == 0.0:
-            why += ("; the shut-in's break is a flattening one (continued growth or a change "
-                    "of leak-off, not the fracture's compliance leaving)")
+            why += ("; the shut-in's break shows no stiffening (a flattening break is "
+                    "continued growth or a change of leak-off, not the fracture's compliance "
+                    "leaving)")
     else:
         losers = {p.method for p in flow if hi(p) < s_lo}
         why = (f"the shut-in before it closed the fracture at {s_lo / 1e5:.1f} bar or above "
