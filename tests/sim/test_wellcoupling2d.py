@@ -559,9 +559,7 @@ def test_wfc_gain_of_a_shortened_step_is_spread_over_the_planned_step():
     # and the cut step as long in pressure as the whole one)
     q_cut, dp_cut, _ = _wfc_step(c, mem, 1e-4)
     assert q_cut == pytest.approx(q_long, rel=1e-12)
-    # dp is a difference of ~2e7 Pa pressures: ~1e-16 of 2e7 over a 27 Pa change is
-    # ~1e-10 relative round-off, hence 1e-9 (the 1/dt rate it guards against is 1e4 off)
-    assert dp_cut == pytest.approx(1e-4 * dp_long, rel=1e-9)
+    assert dp_cut == pytest.approx(1e-4 * dp_long, rel=1e-9)     # (30 MPa round-off)
     # a longer step than planned: Eq. 4.19 as it stands (the gain over the step)
     q_grow, _, _ = _wfc_step(c, mem, 2.0)
     assert q_grow == pytest.approx(1e-6 / (1 + opt.wfc_damping)
@@ -649,14 +647,14 @@ def test_wfc_through_closure_keeps_the_segment_with_the_well(wfc_closure):
     assert [p["end"] for p in e.phases_out] == ["volume", "duration", "pressure_below"]
     r = e.rows()
     mis = r["well_pressure"] - r["segment_pressure"]
-    # Before the fix, measured: the carried rate drained the closed segment to -20 MPa
-    # (50 MPa below the well), the crack-reversal rule then cut to the 1e-4 s floor 21
-    # times, where the gain over dt sent 1e4 times the planned rate. Now measured: the
-    # segment stays >= 26.1 MPa, 3.8 MPa off the well at most, at breakdown (the lag WFC
-    # is known for), and no step reaches the floor
+    # Before the fix, measured: in the flowback the segment was drained to -20 MPa, 50 MPa
+    # below the well, 17 steps were repeated for a crack reversal and 21 were taken at
+    # the 1e-4 s floor (where the gain over dt grew as 1/dt). Now measured: the segment
+    # stays >= 26.1 MPa, 3.8 MPa off the well at most (in the crack run, the lag WFC is
+    # known for), 1.6 MPa after pumping; the shortest step is 22 ms
     assert r["segment_pressure"].min() > sc.stresses.pore_pressure
     after = r["t"] > e.phases_out[0]["t_end"]                 # shut-in and flowback
-    assert np.max(np.abs(mis[after])) < 2e6
+    assert np.max(np.abs(mis[after])) < 3e6
     assert np.min(np.diff(r["t"])) > 10 * sc.numerics.dt_min
     assert not any("crack reversal" in o for o in outcomes)
     c = e.stepper.coupling
