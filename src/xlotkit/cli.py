@@ -519,6 +519,27 @@ def library_build_cmd(root: str, names: tuple[str, ...], replace: bool) -> None:
             click.echo(f"{o.entry.name}: {o.status}, {o.wall_time:.1f} s: {o.message}")
 
 
+def _refuse_existing(markdown: str | None) -> None:
+    """Stop before any work when ``--markdown FILE`` names a file that exists (results are
+    never written over)."""
+    from pathlib import Path
+
+    if markdown is not None and Path(markdown).exists():
+        raise InputError("exists already; results are never written over", file=markdown,
+                         expected="a new file name")
+
+
+def _show_table(table: str, markdown: str | None) -> None:
+    """Print a Markdown table and, with ``--markdown FILE``, write it there too."""
+    from pathlib import Path
+
+    from xlotkit.atomic import atomic_write_text
+
+    click.echo(table)
+    if markdown is not None:
+        atomic_write_text(Path(markdown), table)
+
+
 @library_group.command("check")
 @click.argument("root", metavar="ROOT", type=click.Path(file_okay=False))
 @click.option("--only", "names", multiple=True, metavar="NAME",
@@ -533,19 +554,11 @@ def library_check_cmd(root: str, names: tuple[str, ...], markdown: str | None) -
     closure; shut-in methods within 5 % where the shut-in holds a closure and no pick where
     it clearly does not. Exit status 1 when any scene misses.
     """
-    from pathlib import Path
-
-    from xlotkit.atomic import atomic_write_text
     from xlotkit.library import entries, evaluate, evaluation_markdown
 
-    if markdown is not None and Path(markdown).exists():
-        raise InputError("exists already; results are never written over", file=markdown,
-                         expected="a new file name")
+    _refuse_existing(markdown)
     evals = [evaluate(e) for e in entries(root, names or None)]
-    table = evaluation_markdown(evals)
-    click.echo(table)
-    if markdown is not None:
-        atomic_write_text(Path(markdown), table)
+    _show_table(evaluation_markdown(evals), markdown)
     misses = [(ev.entry.name, f) for ev in evals
               for f in (*ev.failures, *(x for c in ev.cycles for x in c.failures))]
     for name, f in misses:
@@ -564,18 +577,10 @@ def library_check_cmd(root: str, names: tuple[str, ...], markdown: str | None) -
 def library_list_cmd(root: str, names: tuple[str, ...], markdown: str | None) -> None:
     """Table of the scenes of library ROOT from their stored truths: imposed and realised
     sigma_h, sigma_H, T0, FBP, crack half-length, steps and wall time."""
-    from pathlib import Path
-
-    from xlotkit.atomic import atomic_write_text
     from xlotkit.library import entries, scenes_markdown
 
-    if markdown is not None and Path(markdown).exists():
-        raise InputError("exists already; results are never written over", file=markdown,
-                         expected="a new file name")
-    table = scenes_markdown(entries(root, names or None))
-    click.echo(table)
-    if markdown is not None:
-        atomic_write_text(Path(markdown), table)
+    _refuse_existing(markdown)
+    _show_table(scenes_markdown(entries(root, names or None)), markdown)
 
 
 @library_group.command("compare")
