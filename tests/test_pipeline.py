@@ -9,7 +9,8 @@ from click.testing import CliRunner
 
 from xlotkit import InputError
 from xlotkit.cli import main
-from xlotkit.interpret.io import read_log, write_log
+from xlotkit.interpret.io import read_log
+from xlotkit.logfile import write_log
 from xlotkit.pipeline import StressInputs, interpret_record, new_output_dir
 from xlotkit.sim.lumped import simulate_lumped, standard_lumped_scene
 

@@ -421,7 +421,8 @@ def run_demo(out_dir: str | Path, *, model: str = "2d", seed: int = 0,
     -------
     DemoResult
     """
-    from xlotkit.interpret.io import read_log, write_log
+    from xlotkit.interpret.io import read_log
+    from xlotkit.logfile import write_log
 
     if model not in DEMO_MODELS:
         raise InputError(f"unknown demo model {model!r}", key="model",

@@ -8,7 +8,8 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from xlotkit.interpret.io import read_log, write_log
+from xlotkit.interpret.io import read_log
+from xlotkit.logfile import write_log
 from xlotkit.record import Event, PressureReference, Record
 from xlotkit.sim.output import (
     OutputError,

@@ -51,10 +51,10 @@ from typing import Any
 
 import numpy as np
 
-from xlotkit.atomic import atomic_write
 from xlotkit.errors import InputError
+from xlotkit.logfile import CANON_COLUMNS, CANON_MAGIC, write_log
 from xlotkit.record import ColumnInfo, Event, PressureReference, Record
-from xlotkit.units import ParsedUnit, from_si, parse_unit, to_si
+from xlotkit.units import ParsedUnit, parse_unit, to_si
 
 __all__ = [
     "ClockOffset",
@@ -110,24 +110,6 @@ _KNOWN_NAMES = {
     **dict.fromkeys(["cmt return dens", "cmt return density", "return density"],
                     "channel:return_density"),
 }
-
-#: Canonical layout: column titles and the units they are written in.
-_CANON_COLUMNS = (
-    ("pressure", "Pressure", "bar"),
-    ("rate", "Rate", "l/min"),
-    ("volume", "Volume", "m3"),
-    ("return_rate", "Return Rate", "l/min"),
-    ("return_volume", "Return Volume", "m3"),
-    ("density", "Density", "sg"),
-    ("temperature", "Temperature", "degC"),
-)
-_CANON_MAGIC = "xlotkit-log"
-_CANON_VERSION = "1"
-
-#: Units channels are written in, by the kind of quantity.
-_CHANNEL_UNITS = (("pressure", "bar"), ("rate", "l/min"), ("volume", "m3"),
-                  ("density", "sg"), ("temperature", "degC"), ("time", "s"),
-                  ("length", "m"), ("dimensionless", "-"))
 
 # mm:dd:yyyy:hh:mm:ss (cementing unit) at the start of a line
 _CU_TS = re.compile(r"^\s*\d{1,2}:\d{1,2}:\d{4}:\d{1,2}:\d{1,2}:\d{1,2}\s*$")
@@ -405,7 +387,7 @@ def _assemble(tab: _RawTable, *, column_map: Mapping[str, str] | None,
             _check_field_name(explicit, path, name)
             fields.append(explicit)
         elif tab.canonical:
-            canon = {title: f for f, title, _ in _CANON_COLUMNS}
+            canon = {title: f for f, title, _ in CANON_COLUMNS}
             fields.append("time" if name == "time" else canon.get(name, "channel:" + name))
         else:
             fields.append(_KNOWN_NAMES.get(_norm_name(name), "?"))
@@ -833,7 +815,7 @@ def _parse_csv(path: Path, lines: list[str]) -> _RawTable:
             m = re.match(r"#\s*([A-Za-z_][\w.\-]*)\s*:\s?(.*)$", s)
             if m:
                 k, v = m.group(1), m.group(2).strip()
-                if k == _CANON_MAGIC:
+                if k == CANON_MAGIC:
                     canonical = True
                     meta["canonical_version"] = v
                 elif canonical:
@@ -1415,102 +1397,3 @@ def merge_surface_downhole(surface: Record, downhole: Record, *,
 
 def _td(seconds: float) -> timedelta:
     return timedelta(seconds=float(seconds))
-
-
-# ====================================================================== writer
-def _channel_unit(rec: Record, name: str) -> str:
-    """Unit to write a channel in: by the kind of its source column, else SI as is."""
-    for c in rec.columns:
-        if c.field == "channel:" + name and not _blank_unit(c.unit) and c.unit.upper() != "SI":
-            try:
-                pu = parse_unit(c.unit)
-            except InputError:
-                break
-            for kind, unit in _CHANNEL_UNITS:
-                if pu.is_a(kind):
-                    return unit
-            break
-    return "SI"
-
-
-def _fmt(x: float, digits: int) -> str:
-    if not np.isfinite(x):
-        return ""
-    s = f"{x:.{digits}g}"
-    return "0" if s == "-0" else s
-
-
-def write_log(record: Record, path: str | os.PathLike, *, overwrite: bool = False) -> Path:
-    """Write a record in the canonical CSV layout that :func:`read_log` reads back.
-
-    The file starts with ``# key: value`` lines (``xlotkit-log``, ``reference``,
-    ``depth_m``, ``absolute``, ``start_time``, ``source``, ``meta.KEY`` as JSON, one
-    ``event`` per remark as JSON), then a comma-separated header ``time (s),Pressure
-    (bar),Rate (l/min),Volume (m3),Return Rate (l/min),Return Volume (m3),Density (sg),
-    Temperature (degC),<channel> (unit)...`` and one row per sample (15 significant digits
-    for time, 12 for values). Absolute pressures are written as they are, with
-    ``absolute: true``.
-
-    Parameters
-    ----------
-    record : Record
-        What to write.
-    path : path-like
-        Destination; written atomically (temporary file in the same directory, then
-        ``os.replace``).
-    overwrite : bool
-        Replace an existing file; otherwise an existing file raises :class:`InputError`.
-
-    Returns
-    -------
-    Path
-        The file written.
-    """
-    p = Path(path)
-    if p.exists() and not overwrite:
-        raise InputError("file exists; pass overwrite=True to replace it", file=p,
-                         key="overwrite", expected="a new file name or overwrite=True")
-    ref = record.reference
-    head = [f"# {_CANON_MAGIC}: {_CANON_VERSION}",
-            f"# reference: {ref.kind}",
-            f"# depth_m: {'none' if ref.depth_m is None else repr(float(ref.depth_m))}",
-            f"# absolute: {'true' if ref.absolute else 'false'}",
-            f"# start_time: {'none' if record.start_time is None else record.start_time.isoformat()}"]
-    head += [f"# source: {s}" for s in record.sources]
-    for k, v in record.meta.items():
-        if str(k).startswith("_"):
-            continue
-        head.append(f"# meta.{k}: {json.dumps(v, default=str, ensure_ascii=False)}")
-    for e in record.events:
-        d = {"t": e.t, "text": e.text, "line": e.line, "source": e.source,
-             "timestamp": None if e.timestamp is None else e.timestamp.isoformat()}
-        head.append(f"# event: {json.dumps(d, ensure_ascii=False)}")
-    cols: list[tuple[str, np.ndarray, int]] = [("time (s)", record.t, 15)]
-    for field, title, unit in _CANON_COLUMNS:
-        arr = record.series(field)
-        if arr is not None:
-            cols.append((f"{title} ({unit})", from_si(arr, unit), 12))
-    canon_titles = {title for _, title, _ in _CANON_COLUMNS} | {"time"}
-    for name, arr in record.channels.items():
-        if name in canon_titles or "," in name or "(" in name:
-            raise InputError(f"channel name {name!r} cannot be written", file=p, key=name,
-                             expected="a channel name without commas or parentheses")
-        unit = _channel_unit(record, name)
-        vals = arr if unit == "SI" else from_si(arr, unit)
-        cols.append((f"{name} ({unit})", vals, 12))
-    out = [",".join(c[0] for c in cols)]
-    mats = [[_fmt(float(v), d) for v in arr] for _, arr, d in cols]
-    out += [",".join(row) for row in zip(*mats)]
-    text = "\n".join(head + out) + "\n"
-    p.parent.mkdir(parents=True, exist_ok=True)
-    def refuse_if_appeared() -> None:
-        if p.exists() and not overwrite:   # appeared meanwhile
-            raise InputError("file exists; pass overwrite=True to replace it", file=p,
-                             key="overwrite", expected="a new file name or overwrite=True")
-
-    def write(tmp: Path) -> None:
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-
-    atomic_write(p, write, before_replace=refuse_if_appeared)
-    return p

@@ -19,7 +19,7 @@
 * :func:`synthetic_log` — the record a field logger would have produced (bottom-hole
   gauge pressure, surface pressure, pump and return rates and volumes, density) at a chosen
   sample interval, with seeded Gaussian gauge noise and a resolution; written by
-  :func:`xlotkit.interpret.io.write_log` in the CSV layout ``xlotkit inspect`` / ``pick``
+  :func:`xlotkit.logfile.write_log` in the CSV layout ``xlotkit inspect`` / ``pick``
   read.
 
 All values SI (Pa, m, s, m^3, m^3/s).
@@ -209,7 +209,7 @@ def synthetic_log(record: Record, *, interval: float, noise: float = 0.0,
     Returns
     -------
     Record
-        Ready for :func:`xlotkit.interpret.io.write_log`.
+        Ready for :func:`xlotkit.logfile.write_log`.
     """
     rec = resample_record(record, interval)
     rec = rec.replace(channels={k: v for k, v in rec.channels.items() if k in channels})

@@ -394,7 +394,7 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
 
 def _finish(scene: Scene, engine: Engine, res: Any, driver: dict[str, Any], target: Path,
             paths: dict[str, Path], resumed: bool, wall: float) -> SimulationResult:
-    from xlotkit.interpret.io import write_log
+    from xlotkit.logfile import write_log
 
     st = scene.stresses
     imposed = {"sigma_h": st.sigma_h, "sigma_H": st.sigma_H,
