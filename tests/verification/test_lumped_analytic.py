@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from xlotkit.formulas import hubbert_willis
 from xlotkit.sim.lumped import (
     breakdown_pressure,
     fracture_compliance,
@@ -29,6 +30,7 @@ def test_penny_stiffness_is_eq_c3_and_sneddon_volumes():
         4e6 / ep * math.pi * 25.0 / 2 * 10.0, rel=1e-14)
     assert stress_intensity(1e6, 4.0, "penny") == pytest.approx(2e6 * math.sqrt(4 / math.pi))
     assert breakdown_pressure(30e6, 35e6, 20e6, 3e6) == 38e6
+    assert hubbert_willis(30e6, 35e6, 20e6, 3e6) == 38e6
 
 
 def test_kgd_storage_toughness_propagation_matches_closed_form():

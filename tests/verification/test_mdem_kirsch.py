@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from xlotkit.sim.mechanics import BoundaryConditions, InSituStress, MechanicsModel, RockProperties
-from xlotkit.sim.mechanics.analytic import kirsch_cartesian, kirsch_polar
+from xlotkit.formulas import kirsch_cartesian, kirsch_polar
 from xlotkit.sim.mechanics.recovery import polar_components, wall_stress
 from xlotkit.sim.mesh import borehole_mesh, refine_uniform
 

@@ -35,6 +35,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from xlotkit import formulas
 from xlotkit.errors import InputError
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.units import GRAVITY
@@ -597,7 +598,7 @@ def breakdown_hubbert_willis(sigma_h, sigma_H, p0, T0):
     """
     sh, sH, pp = _stress_inputs(sigma_h, sigma_H, p0)
     t0 = _nonneg(T0, "T0", "a tensile strength [Pa]")
-    return _out(3.0 * sh - sH - pp + t0)
+    return _out(formulas.hubbert_willis(sh, sH, pp, t0))
 
 
 def reopening_pressure(sigma_h, sigma_H, p0):
@@ -611,7 +612,7 @@ def reopening_pressure(sigma_h, sigma_H, p0):
         Stresses and pore pressure [Pa], as in :func:`breakdown_hubbert_willis`.
     """
     sh, sH, pp = _stress_inputs(sigma_h, sigma_H, p0)
-    return _out(3.0 * sh - sH - pp)
+    return _out(formulas.reopening_pressure(sh, sH, pp))
 
 
 def poroelastic_eta(alpha, nu):
@@ -849,16 +850,19 @@ def sigma_H_estimates(sigma_h, *, p0, pr=None, fbp=None, T0=None, n_samples: int
             if t0.value < 0:
                 raise InputError(f"tensile strength {t0.value:g} Pa", key="T0",
                                  expected="T0 >= 0")
-            central = 3.0 * sh.value - fb.value - pp.value + t0.value
-            samples = 3.0 * s_sh - fb.sample(n, rng) - s_pp + t0.sample(n, rng)
+            # Eq. C.18 is Eq. C.11 solved for sigma_H: the same expression with sigma_H and
+            # P_b exchanged
+            central = formulas.hubbert_willis(sh.value, fb.value, pp.value, t0.value)
+            samples = formulas.hubbert_willis(s_sh, fb.sample(n, rng), s_pp, t0.sample(n, rng))
             estimates["C.18"] = _summarise("C.18", central, samples, s_sh, sh.value,
                                            (lo_p, hi_p))
     if pr is not None:
         r = as_uncertain(pr, "pr")
         if r.value <= 0:
             raise InputError(f"reopening pressure {r.value:g} Pa", key="pr", expected="pr > 0")
-        central = 3.0 * sh.value - r.value - pp.value
-        samples = 3.0 * s_sh - r.sample(n, rng) - s_pp
+        # Eq. C.19 is Eq. C.13 solved for sigma_H (sigma_H and P_r exchanged)
+        central = formulas.reopening_pressure(sh.value, r.value, pp.value)
+        samples = formulas.reopening_pressure(s_sh, r.sample(n, rng), s_pp)
         estimates["C.19"] = _summarise("C.19", central, samples, s_sh, sh.value, (lo_p, hi_p))
     return SigmaHEstimates(sigma_h=sh, p0=pp, estimates=estimates, notes=tuple(notes))
 
@@ -931,13 +935,7 @@ def kirsch_stresses(r, theta, a, sigma_x, sigma_y, p_w, *, tau_xy=0.0):
     th = _arr(theta, "theta")
     sx, sy, txy = _arr(sigma_x, "sigma_x"), _arr(sigma_y, "sigma_y"), _arr(tau_xy, "tau_xy")
     pw = _arr(p_w, "p_w")
-    q = (aa / rr) ** 2
-    mean = 0.5 * (sx + sy)
-    dev = 0.5 * (sx - sy) * np.cos(2.0 * th) + txy * np.sin(2.0 * th)
-    dev_s = -0.5 * (sx - sy) * np.sin(2.0 * th) + txy * np.cos(2.0 * th)
-    s_rr = mean * (1.0 - q) + dev * (1.0 + 3.0 * q * q - 4.0 * q) + pw * q
-    s_tt = mean * (1.0 + q) - dev * (1.0 + 3.0 * q * q) - pw * q
-    t_rt = dev_s * (1.0 - 3.0 * q * q + 2.0 * q)
+    s_rr, s_tt, t_rt = formulas.kirsch_polar(rr, th, aa, sx, sy, pw, txy)
     # At r = a the shear factor (1 - 3 + 2) is 0 only up to rounding; set the boundary value
     # exactly because this function is a verification reference.
     t_rt = np.where(rr == aa, 0.0, t_rt)
@@ -971,7 +969,7 @@ def hoop_stress_at_wall(theta, sigma_x, sigma_y, p_w, *, tau_xy=0.0):
     th = _arr(theta, "theta")
     sx, sy, txy = _arr(sigma_x, "sigma_x"), _arr(sigma_y, "sigma_y"), _arr(tau_xy, "tau_xy")
     pw = _arr(p_w, "p_w")
-    return _out(sx + sy - 2.0 * (sx - sy) * np.cos(2.0 * th) - 4.0 * txy * np.sin(2.0 * th) - pw)
+    return _out(formulas.kirsch_wall_hoop(th, sx, sy, pw, txy))
 
 
 # --------------------------------------------------------------------------------------------
@@ -1245,7 +1243,7 @@ def penny_stiffness(R, E, nu):
     """
     e, n = _elastic(E, nu)
     r = _positive(R, "R", "a radius [m]")
-    return _out(3.0 * e / (16.0 * r ** 3 * (1.0 - n * n)))
+    return _out(formulas.penny_stiffness(r, e, n))
 
 
 def kgd_stiffness(L, h, E, nu):
@@ -1266,7 +1264,7 @@ def kgd_stiffness(L, h, E, nu):
     e, n = _elastic(E, nu)
     ll = _positive(L, "L", "a half-length [m]")
     hh = _positive(h, "h", "a fracture height [m]")
-    return _out(e / (1.0 - n * n) / (2.0 * math.pi * ll ** 2 * hh))
+    return _out(formulas.kgd_stiffness(ll, hh, e, n))
 
 
 def fracture_half_length_from_stiffness(S_open, S_closed, E, nu, geometry: str = "penny", *,
@@ -1309,12 +1307,12 @@ def fracture_half_length_from_stiffness(S_open, S_closed, E, nu, geometry: str =
         if h is not None:
             raise InputError("h is not used by the penny geometry", key="h",
                              expected="h only with geometry='kgd'")
-        return _out(np.cbrt(3.0 * e * cf / (16.0 * (1.0 - n * n))))
+        return _out(formulas.penny_radius(cf, e, n))
     if geometry == "kgd":
         if h is None:
             raise InputError("the KGD geometry needs the fracture height", key="h",
                              expected="h > 0 [m]")
         hh = _positive(h, "h", "a fracture height [m]")
-        return _out(np.sqrt(e / (1.0 - n * n) * cf / (2.0 * math.pi * hh)))
+        return _out(formulas.kgd_half_length(cf, hh, e, n))
     raise InputError(f"unknown geometry {geometry!r}", key="geometry",
                      expected="'penny' or 'kgd'")

@@ -126,6 +126,7 @@ from typing import Any, Literal
 import numpy as np
 from scipy.optimize import brentq
 
+from xlotkit import formulas
 from xlotkit.errors import InputError
 from xlotkit.record import Event, PressureReference, Record
 from xlotkit.sim.schedule import (
@@ -177,8 +178,9 @@ NWB_DEFAULT = 3e5 / (0.5 / 60.0) ** 2
 # =========================================================================== physics
 def breakdown_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
                        tensile_strength: float) -> float:
-    """Hubbert–Willis breakdown pressure ``3 sigma_h - sigma_H - p0 + T0`` [Pa] (Eq. C.11)."""
-    return 3.0 * sigma_h - sigma_H - pore_pressure + tensile_strength
+    """Hubbert–Willis breakdown pressure ``3 sigma_h - sigma_H - p0 + T0`` [Pa] (Eq. C.11;
+    :func:`xlotkit.formulas.hubbert_willis`)."""
+    return formulas.hubbert_willis(sigma_h, sigma_H, pore_pressure, tensile_strength)
 
 
 def reopening_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
@@ -186,7 +188,8 @@ def reopening_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
     """Well pressure that reopens a closed fracture [Pa].
 
     ``"wellbore"``: the fracture mouth sits in the borehole wall, whose hoop stress must be
-    overcome again, now without tensile strength (thesis Eq. C.13)::
+    overcome again, now without tensile strength (thesis Eq. C.13,
+    :func:`xlotkit.formulas.reopening_pressure`)::
 
         P_r = max(sigma_h, 3 sigma_h - sigma_H - p_0)
 
@@ -196,20 +199,21 @@ def reopening_pressure(sigma_h: float, sigma_H: float, pore_pressure: float,
     """
     if model == "sigma_h":
         return sigma_h
-    return max(sigma_h, 3.0 * sigma_h - sigma_H - pore_pressure)
+    return max(sigma_h, formulas.reopening_pressure(sigma_h, sigma_H, pore_pressure))
 
 
 def fracture_volume(net_pressure: float, size: float, geometry: Geometry, e_prime: float,
                     height: float = 1.0) -> float:
     """Sneddon opening volume [m^3]; 0 for a closed fracture (``net_pressure <= 0``).
 
-    KGD: ``2 pi h L^2 dp / E'`` (``size`` = half-length L); penny: ``16 R^3 dp / (3 E')``.
+    KGD: ``2 pi h L^2 dp / E'`` (``size`` = half-length L); penny: ``16 R^3 dp / (3 E')``
+    (:func:`xlotkit.formulas.kgd_volume`, :func:`~xlotkit.formulas.penny_volume`).
     """
     if net_pressure <= 0.0:
         return 0.0
     if geometry == "kgd":
-        return 2.0 * math.pi * height * size * size * net_pressure / e_prime
-    return 16.0 * size**3 * net_pressure / (3.0 * e_prime)
+        return formulas.kgd_volume(net_pressure, size, height, e_prime)
+    return formulas.penny_volume(net_pressure, size, e_prime)
 
 
 def fracture_compliance(size: float, geometry: Geometry, e_prime: float,
@@ -220,14 +224,16 @@ def fracture_compliance(size: float, geometry: Geometry, e_prime: float,
 
 def stress_intensity(net_pressure: float, size: float, geometry: Geometry) -> float:
     """Mode-I stress intensity [Pa m^0.5]: ``dp sqrt(pi L)`` (KGD), ``(2/pi) dp sqrt(pi R)``."""
-    k = net_pressure * math.sqrt(math.pi * size)
-    return k if geometry == "kgd" else 2.0 / math.pi * k
+    if geometry == "kgd":
+        return formulas.kgd_stress_intensity(net_pressure, size)
+    return formulas.penny_stress_intensity(net_pressure, size)
 
 
 def critical_net_pressure(size: float, geometry: Geometry, toughness: float) -> float:
     """Net pressure at which ``K_I = K_Ic`` [Pa] for a fracture of ``size`` [m]."""
-    dp = toughness / math.sqrt(math.pi * size)
-    return dp if geometry == "kgd" else 0.5 * math.pi * dp
+    if geometry == "kgd":
+        return formulas.kgd_critical_net_pressure(size, toughness)
+    return formulas.penny_critical_net_pressure(size, toughness)
 
 
 def fracture_face_area(size: float, geometry: Geometry, height: float = 1.0) -> float:
@@ -246,15 +252,8 @@ def stable_length(well_compliance: float, geometry: Geometry, e_prime: float,
     return (3.0 * well_compliance * e_prime / 80.0) ** (1.0 / 3.0)
 
 
-def wall_leak_index(permeability: float, viscosity: float, length: float, radius: float,
-                    drainage_radius: float | None = None) -> float:
-    """Steady radial productivity ``J = 2 pi k H / (mu ln(r_e / r_w))`` [m^3/(s Pa)].
-
-    A constant-permeability open-hole wall leaking ``J (p - p0)``; ``r_e`` defaults to
-    ``10 r_w`` (a short-time radius of investigation, a modelling choice).
-    """
-    r_e = 10.0 * radius if drainage_radius is None else drainage_radius
-    return 2.0 * math.pi * permeability * length / (viscosity * math.log(r_e / radius))
+#: Steady radial productivity of the open-hole wall (:func:`xlotkit.formulas.wall_leak_index`).
+wall_leak_index = formulas.wall_leak_index
 
 
 # =========================================================================== scene
@@ -458,7 +457,7 @@ class LumpedScene:
     @property
     def e_prime(self) -> float:
         """Plane-strain modulus E/(1 - nu^2) [Pa]."""
-        return self.youngs_modulus / (1.0 - self.poisson_ratio**2)
+        return formulas.plane_strain_modulus(self.youngs_modulus, self.poisson_ratio)
 
     @property
     def breakdown_pressure(self) -> float:

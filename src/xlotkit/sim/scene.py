@@ -50,9 +50,9 @@ Lumped parameters derived from the rock
 ---------------------------------------
 Without explicit ``lumped.leakoff_coefficient`` / ``lumped.wall_leak_index`` the lumped
 model takes them from the rock: the open-hole wall's radial productivity
-``J = 2 pi k L_oh / (mu ln(10))`` (:func:`xlotkit.sim.lumped.wall_leak_index`) and the
+``J = 2 pi k L_oh / (mu ln(10))`` (:func:`xlotkit.formulas.wall_leak_index`) and the
 Carter coefficient combining the filtrate-viscosity and reservoir-compressibility terms
-(Economides & Nolte) with ``dp = sigma_h - p0``::
+(Economides & Nolte, :func:`xlotkit.formulas.carter_coefficient`) with ``dp = sigma_h - p0``::
 
     C_v = sqrt(k phi dp / (2 mu)),   C_c = dp sqrt(k phi c_f / (pi mu)),
     C_L = 2 C_v C_c / (C_v + sqrt(C_v^2 + 4 C_c^2))
@@ -74,13 +74,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
+from xlotkit import formulas
 from xlotkit.errors import InputError
 from xlotkit.sim.lumped import (
     NWB_DEFAULT,
     LumpedScene,
     _quantity,
     _scene_from_dict,
-    wall_leak_index,
 )
 from xlotkit.sim.schedule import Schedule
 from xlotkit.sim.well import WATER_COMPRESSIBILITY, Completion, INCH, well_compliance
@@ -837,34 +837,8 @@ _SECTION_TYPES: dict[str, type] = {
 }
 
 
-def carter_coefficient(permeability: float, porosity: float, compressibility: float,
-                       viscosity: float, overbalance: float) -> float:
-    """Combined Carter leak-off coefficient [m/s^0.5] (module docstring).
-
-    Parameters
-    ----------
-    permeability : float
-        k [m^2].
-    porosity : float
-        phi [-].
-    compressibility : float
-        Pore-fluid compressibility c_f [1/Pa].
-    viscosity : float
-        mu [Pa s].
-    overbalance : float
-        Pressure difference across the fracture face [Pa] (``sigma_h - p0``).
-
-    Returns
-    -------
-    float
-        ``2 C_v C_c / (C_v + sqrt(C_v^2 + 4 C_c^2))``; 0 when ``k`` or ``dp`` is 0.
-    """
-    dp = max(overbalance, 0.0)
-    cv = math.sqrt(permeability * porosity * dp / (2.0 * viscosity))
-    cc = dp * math.sqrt(permeability * porosity * compressibility / (math.pi * viscosity))
-    if cv == 0.0 or cc == 0.0:
-        return 0.0
-    return 2.0 * cv * cc / (cv + math.sqrt(cv * cv + 4.0 * cc * cc))
+#: Combined Carter coefficient of the rock (:func:`xlotkit.formulas.carter_coefficient`).
+carter_coefficient = formulas.carter_coefficient
 
 
 # =========================================================================== scene
@@ -1036,7 +1010,7 @@ class Scene:
                                      fl.viscosity, st.sigma_h - st.pore_pressure)
         j = lo.wall_leak_index
         if j is None:
-            j = wall_leak_index(rk.permeability, fl.viscosity, comp.open_hole_length,
+            j = formulas.wall_leak_index(rk.permeability, fl.viscosity, comp.open_hole_length,
                                 self.geometry.hole_radius) if comp.open_hole_length > 0 else 0.0
         return LumpedScene(
             schedule=self.schedule, sigma_h=st.sigma_h, sigma_H=st.sigma_H,

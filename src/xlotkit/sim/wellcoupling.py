@@ -53,7 +53,7 @@ Per unit height, with wall pressure ``p``, half-length ``L`` and ``E' = E/(1-nu^
     stress intensity      K_I = (p - sigma_h) sqrt(pi L)  <=  K_Ic              (LEFM)
     leak-off (Darcy)      q_L = (J_w + 4 L lambda) (p - p_0)
 
-``J_w`` is the radial Darcy index of the hole wall (:func:`~xlotkit.sim.lumped.wall_leak_index`
+``J_w`` is the radial Darcy index of the hole wall (:func:`~xlotkit.formulas.wall_leak_index`
 with unit length), ``lambda`` a linear leak conductance per unit face area of the four fracture
 faces (two wings, two faces; the faces are taken to stay hydraulically connected after
 mechanical closure, which keeps ``q_L`` continuous in ``p``). The intact segment breaks down
@@ -85,8 +85,8 @@ from typing import Any, Literal, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import brentq
 
+from xlotkit import formulas
 from xlotkit.errors import InputError, XlotkitError
-from xlotkit.sim.lumped import breakdown_pressure, wall_leak_index
 from xlotkit.sim.schedule import Bleed, Flowback, Pump, Schedule, ShutIn
 from xlotkit.sim.well import (
     Column,
@@ -315,18 +315,22 @@ class LumpedUnitSegment:
     def fracture_volume(self, p: float, L: float) -> float:
         """``2 pi L^2 max(p - sigma_h, 0) / E'`` [m^3 per m]."""
         dp = p - self.sigma_h
-        return 2.0 * math.pi * L * L * dp / self.e_prime if (dp > 0.0 and L > 0.0) else 0.0
+        return formulas.kgd_volume(dp, L, 1.0, self.e_prime) if (dp > 0.0 and L > 0.0) else 0.0
 
     def critical_pressure(self, L: float) -> float:
         """Wall pressure at which ``K_I = K_Ic`` for half-length ``L`` [Pa]."""
-        return self.sigma_h + self.toughness / math.sqrt(math.pi * L)
+        return self.sigma_h + formulas.kgd_critical_net_pressure(L, self.toughness)
 
     def leak_index(self, L: float) -> float:
         """``J_w + 4 L lambda`` [m^3/(s Pa) per m]."""
         return self.wall_leak + 4.0 * L * self.face_leak
 
+    def _fracture_compliance(self, L: float) -> float:
+        """``dV_f/dp = 2 pi L^2 / E'`` of the open fracture [m^3/Pa per m]."""
+        return formulas.kgd_volume(1.0, L, 1.0, self.e_prime)
+
     def _compliance(self, p: float, L: float, dt: float) -> float:
-        cf = 2.0 * math.pi * L * L / self.e_prime if (L > 0.0 and p > self.sigma_h) else 0.0
+        cf = self._fracture_compliance(L) if (L > 0.0 and p > self.sigma_h) else 0.0
         return self.storage + cf + dt * self.leak_index(L)
 
     # ------------------------------------------------------------------ step
@@ -429,7 +433,7 @@ class LumpedUnitSegment:
         counter[0] += 1
         p = b / a                                        # fracture closed / absent
         if broken and L > 0.0 and p > self.sigma_h:
-            cf = 2.0 * math.pi * L * L / self.e_prime
+            cf = self._fracture_compliance(L)
             counter[0] += 1
             p = (b + cf * self.sigma_h) / (a + cf)       # fracture open
         return p
@@ -622,8 +626,8 @@ class WellCouplingScene:
     @property
     def breakdown_pressure(self) -> float:
         """Hubbert–Willis P_b [Pa] (Eq. C.11)."""
-        return breakdown_pressure(self.sigma_h, self.sigma_H, self.pore_pressure,
-                                  self.tensile_strength)
+        return formulas.hubbert_willis(self.sigma_h, self.sigma_H, self.pore_pressure,
+                                       self.tensile_strength)
 
     @property
     def column(self) -> Column:
@@ -647,10 +651,10 @@ class WellCouplingScene:
         return LumpedUnitSegment(
             radius=comp.open_hole_radius, compressibility=comp.compressibility,
             sigma_h=self.sigma_h, breakdown_pressure=self.breakdown_pressure,
-            e_prime=self.youngs_modulus / (1.0 - self.poisson_ratio**2),
+            e_prime=formulas.plane_strain_modulus(self.youngs_modulus, self.poisson_ratio),
             toughness=self.toughness, initial_flaw=self.initial_flaw,
             pore_pressure=self.pore_pressure,
-            wall_leak=wall_leak_index(self.permeability, self.viscosity, 1.0,
+            wall_leak=formulas.wall_leak_index(self.permeability, self.viscosity, 1.0,
                                       comp.open_hole_radius) if self.permeability > 0 else 0.0,
             face_leak=self.face_leak)
 

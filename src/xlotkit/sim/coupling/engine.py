@@ -68,6 +68,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from xlotkit import formulas
 from xlotkit.errors import InputError, XlotkitError
 from xlotkit.record import Event, PressureReference, Record
 from xlotkit.sim.coupling.geometry import fracture_summary
@@ -133,14 +134,6 @@ _CHOKE_LINEAR = 1e4
 #: and has no other use for it); a typical sedimentary rock.
 ROCK_DENSITY = 2500.0
 
-
-def rayleigh_speed(young: float, poisson: float, density: float = ROCK_DENSITY) -> float:
-    """Rayleigh-wave speed [m/s] of an elastic solid (Viktorov's approximation
-    ``c_R = c_s (0.862 + 1.14 nu) / (1 + nu)``, ``c_s = sqrt(E / (2 (1 + nu) rho))``,
-    within 0.5 % for 0 <= nu <= 0.5): the limiting speed of a running crack tip, used
-    as the crack-speed limit of the 2D steps (``CoupledControl.crack_speed``)."""
-    cs = math.sqrt(young / (2.0 * (1.0 + poisson) * density))
-    return cs * (0.862 + 1.14 * poisson) / (1.0 + poisson)
 
 _MECH_FIELDS = ("displacement", "pore_pressure", "stress", "effective_stress",
                 "cluster_state", "contact_status", "normal_force", "shear_force", "gap",
@@ -324,8 +317,9 @@ class MDEMEngine:
         self.column = well_column(sc)
         num = sc.numerics
         self.control = CoupledControl(max_newton=int(num.max_newton),
-                                      crack_speed=rayleigh_speed(sc.rock.youngs_modulus,
-                                                                 sc.rock.poisson_ratio))
+                                      crack_speed=formulas.rayleigh_speed(
+                                          sc.rock.youngs_modulus, sc.rock.poisson_ratio,
+                                          ROCK_DENSITY))
         self.tsc = TimeStepControl(dt_initial=min(1.0, num.dt_max), dt_min=num.dt_min,
                                    dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
                                    dp_max=float(num.dp_max))
