@@ -522,7 +522,6 @@ def _pressurisation_check(sim, sc) -> dict[str, float]:
     clean record from 10 s after the pump starts to 10 s before the first cluster fails
     (or the pump stops).
     """
-    from xlotkit.sim.schedule import Pump
 
     truth = sim.truth
     pump = next(p for p in truth["phases"] if p["kind"] == "pump")
@@ -532,8 +531,8 @@ def _pressurisation_check(sim, sc) -> dict[str, float]:
     rec = sim.clean_record
     sel = (rec.t >= t0 + 10.0) & (rec.t <= t1 - 10.0)
     slope = float(np.polyfit(rec.t[sel], rec.pressure[sel], 1)[0])
-    ph = next(p for _, p in sc.schedule.expanded() if isinstance(p, Pump))
-    q = float(ph.rate_at(0.0))
+    ph = next(p for _, p in sc.schedule.expanded() if p.pumps)
+    q = float(ph.pump_rate(0.0))
     g, rk = sc.geometry, sc.rock
     hole = (2.0 * math.pi * g.hole_radius ** 2 * g.segment_height * (1.0 + rk.poisson_ratio)
             / rk.youngs_modulus)

@@ -186,7 +186,9 @@ def test_choke_flowback_with_pipe_friction():
     """With ``effects.pipe_friction`` the choke sees the surface pressure after the returning
     flow's friction (as in the lumped model): Q = zeta sqrt(p_s) with p_s below the static
     column's surface pressure, and the rate's derivative (Newton's) is the true one."""
+    from xlotkit.sim.schedule import Flowback
     from xlotkit.sim.well import (
+        WellDrive,
         choke_surface_pressure,
         friction_factor,
         surface_from_bottomhole,
@@ -221,7 +223,8 @@ def test_choke_flowback_with_pipe_friction():
     assert loss == pytest.approx(darcy, rel=0.03)
     assert np.min(loss) > 1e5
     # Newton's dQ/dp_w against a central difference of the rate law (2 kPa)
-    e._ctx = {"kind": "flowback", "t0": 0.0, "rate": 0.0, "zeta": zeta, "steps": None}
+    e._drive = WellDrive(e.column).begin(Flowback(zeta=zeta, duration=1.0), t0=0.0,
+                                         p_bh=float(pw[0]))
     p = float(pw[0])
     qv, dq = e._well_rate(0.0, p)
     assert -qv == pytest.approx(choke_surface_pressure(p, zeta, e.column)[1], rel=1e-12)

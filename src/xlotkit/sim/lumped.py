@@ -129,9 +129,9 @@ from scipy.optimize import brentq
 from xlotkit import formulas
 from xlotkit.errors import InputError
 from xlotkit.record import Event, PressureReference, Record
+from xlotkit.checks import check_range as _check
 from xlotkit.sim.schedule import (
     _NUM_UNIT,
-    Bleed,
     Flowback,
     Pump,
     Schedule,
@@ -141,11 +141,10 @@ from xlotkit.sim.schedule import (
 from xlotkit.sim.well import (
     Column,
     Completion,
-    _check,
-    calibrate_choke,
-    choke_surface_pressure,
+    PhaseDrive,
+    WellDrive,
     hydrostatic_bottomhole,
-    surface_from_bottomhole,
+    phase_place,
     well_compliance,
 )
 
@@ -584,16 +583,6 @@ class _Step:
     margin: float
 
 
-class _Ctx:
-    """What the current phase does at the surface."""
-
-    def __init__(self, phase, q_pump: float = 0.0, zeta: float = 0.0, q_bleed: float = 0.0):
-        self.phase = phase
-        self.q_pump = q_pump
-        self.zeta = zeta
-        self.q_bleed = q_bleed
-
-
 class _Sim:
     HIST_KEYS = ("t", "p", "pf", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps",
                  "q_in", "q_ret")
@@ -642,16 +631,6 @@ class _Sim:
     def area(self, L: float) -> float:
         return fracture_face_area(L, self.geo, self.h) if L > 0 else 0.0
 
-    def surface(self, p: float, ctx: _Ctx) -> tuple[float, float]:
-        """(surface pressure, return rate) at bottom-hole pressure p in phase ctx."""
-        if isinstance(ctx.phase, Flowback):
-            return choke_surface_pressure(p, ctx.zeta, self.col)
-        if isinstance(ctx.phase, Bleed):
-            return surface_from_bottomhole(p, -ctx.q_bleed, self.col), ctx.q_bleed
-        if isinstance(ctx.phase, Pump):
-            return surface_from_bottomhole(p, ctx.q_pump, self.col), 0.0
-        return surface_from_bottomhole(p, 0.0, self.col), 0.0
-
     def carter_old(self, t0: float, t1: float) -> float:
         """Leak volume over [t0, t1] from both faces of all area opened before t0."""
         n = self._cn
@@ -683,21 +662,25 @@ class _Sim:
         self._cn += 1
 
     # ------------------------------------------------------------------ one step
-    def solve(self, s: _State, dt: float, ctx: _Ctx, force_jump: bool = False) -> _Step:
+    def solve(self, s: _State, dt: float, drive: PhaseDrive, q_pump: float,
+              force_jump: bool = False) -> _Step:
+        """One trial step of ``dt`` from ``s`` under the phase in force (``drive``) with the
+        pump rate ``q_pump`` of the step."""
         cw, sh, k = self.cw, self.sh, self.k_nwb
         # The fracture exchanges fluid with the well only when it exists and its mouth is
         # not sealed by the borehole wall (wellbore reopening model).
         linked = s.broken and not s.sealed
         pf0 = s.pf if linked else s.p
         is_open = linked and pf0 > sh + self.tol_p
-        dv_in = ctx.q_pump * dt
+        dv_in = q_pump * dt
         dv_c_old = self.carter_old(s.t, s.t + dt) if (is_open and dt > 0) else 0.0
         c_new = (2.0 * 4.0 / 3.0 * self.CL * math.sqrt(dt)) if is_open else 0.0
         q_ret_n = s.q_ret if dt > 0 else 0.0
         wall_n = self.J * (s.p - self.p0)
         A_n = self.area(s.L)
         half = 0.5 * dt
-        bleed_like = not isinstance(ctx.phase, Flowback)
+        # returns at a fixed rate (bleed; 0 pumping or shut in) or through the choke
+        fixed_return = not drive.phase.through_choke
         # Entry loss acts on time-resolved inflow only: zero-duration steps are the
         # instantaneous equilibrium jumps (breakdown, reopening), taken without it.
         throttle = k > 0.0 and dt > 0.0 and linked
@@ -713,12 +696,12 @@ class _Sim:
                 # Well pressure: fracture pressure + k Q_f^2 while the fracture takes
                 # fluid (backward Euler: Q_f = x / dt, the step-mean inflow).
                 p = pf + k * (x / dt) ** 2 if (throttle and x > 0.0) else pf
-            if bleed_like:
-                q_ret = ctx.q_bleed
+            if fixed_return:
+                q_ret = drive.phase.fixed_return_rate
                 dv_ret = q_ret * dt
                 ps = None
             else:
-                ps, q_ret = choke_surface_pressure(p, ctx.zeta, self.col)
+                ps, q_ret = drive.choke(p)
                 dv_ret = half * (q_ret_n + q_ret)
             dv_w = half * (wall_n + self.J * (p - self.p0))
             r = cw * (p - s.p) + x + dv_ret + dv_w - dv_in
@@ -770,7 +753,7 @@ class _Sim:
                 pf = sh + dp
         r, vf, dv_ret, dv_w, dv_c, q_ret, ps, dA, p = parts(pf, dp, L, p_w, vf_w)
         if ps is None:
-            ps = self.surface(p, ctx)[0]
+            ps = drive.surface(p, q_pump)[0]
         # Relative to the step's volume turnover; for sub-millisecond (event) steps the
         # turnover is at the round-off level of the stored volume, so floor the scale at
         # 1e-6 of it (C_w p + V_f).
@@ -873,14 +856,14 @@ class _Sim:
         dp = self.dpc(L)
         return sh + dp, dp, L, sh + dp + k * x * x * inv_dt2, None, False, margin
 
-    def accept(self, s: _State, st: _Step, ctx: _Ctx) -> _State:
+    def accept(self, s: _State, st: _Step, q_pump: float) -> _State:
         if st.dA > 0.0:
             self.add_area(s.t, s.t + st.dt, st.dA)
         new = _State(t=s.t + st.dt, p=st.p, L=st.L, broken=s.broken, vf=st.vf, pf=st.pf,
                      sealed=s.sealed,
                      v_in=s.v_in + st.dv_in, v_ret=s.v_ret + st.dv_ret,
                      v_carter=s.v_carter + st.dv_carter, v_wall=s.v_wall + st.dv_wall,
-                     ps=st.ps, q_in=ctx.q_pump, q_ret=st.q_ret)
+                     ps=st.ps, q_in=q_pump, q_ret=st.q_ret)
         self.mb_err.append(abs(st.resid) / st.scale)
         self.mb_t.append(new.t)
         self.n_steps += 1
@@ -1048,8 +1031,9 @@ class LumpedEngine:
         self._wall0 = _time.perf_counter()
         self._wall_before = 0.0
         self.sim = sim = _Sim(sc)
+        self._well = WellDrive(sim.col)
         self._p_init = sc.p_initial
-        ps0 = sim.surface(self._p_init, _Ctx(ShutIn(duration=1.0)))[0]
+        ps0 = self._well.idle().surface(self._p_init)[0]
         self.s = _State(t=0.0, p=self._p_init, ps=ps0, pf=self._p_init)
         sim.push(self.s)
         self._i_ph = 0
@@ -1072,7 +1056,8 @@ class LumpedEngine:
         self._reason = ""
         self._dt_adapt = float(sc.dt)
         self._n_loop = 0
-        self._ctx = _Ctx(ShutIn(duration=1.0))
+        self._drive = self._well.idle()
+        self._q_pump = 0.0
         self._started = True
 
     def is_done(self) -> bool:
@@ -1161,8 +1146,8 @@ class LumpedEngine:
             "i_ph": self._i_ph, "in_phase": self._in_phase, "t0": self._t0,
             "v_in0": self._v_in0, "v_ret0": self._v_ret0, "reason": self._reason,
             "dt_adapt": self._dt_adapt, "n_loop": self._n_loop,
-            "ctx": {"q_pump": self._ctx.q_pump, "zeta": self._ctx.zeta,
-                    "q_bleed": self._ctx.q_bleed},
+            "ctx": {"q_pump": self._q_pump, "zeta": self._drive.zeta,
+                    "q_bleed": self._drive.phase.fixed_return_rate},
             "phases_out": self.phases_out,
             "events": [[e.t, e.text] for e in self.events],
             "closure_times": self.closure_times, "reopening_times": self.reopening_times,
@@ -1218,83 +1203,43 @@ class LumpedEngine:
         self._wall_before = float(scal["wall_time"])
         if self._in_phase:
             c = scal["ctx"]
-            self._setup_phase_context()
-            self._ctx.q_pump, self._ctx.zeta, self._ctx.q_bleed = (
-                c["q_pump"], c["zeta"], c["q_bleed"])
+            self._setup_phase_context(zeta=c["zeta"])
+            self._q_pump = c["q_pump"]
 
     def snapshot(self) -> None:
         """The lumped model has no mesh: no field snapshots."""
         return None
 
     # ------------------------------------------------------------------ phases
-    def _setup_phase_context(self) -> None:
-        """Phase-dependent objects that follow from ``_i_ph``, ``_t0``, ``_v_in0``, ``_v_ret0``."""
+    def _setup_phase_context(self, zeta: float | None = None) -> None:
+        """Phase-dependent objects that follow from ``_i_ph``, ``_t0``, ``_v_in0``,
+        ``_v_ret0`` and the state: the drive (its choke calibrated at the present pressure
+        unless ``zeta`` is given, from a checkpoint), the time limits and the end tests."""
         sc = self.sc
         cyc, ph = self._plan[self._i_ph]
-        if isinstance(ph, Pump):
-            self._ctx = _Ctx(ph, q_pump=ph.rate_at(0.0))
-        elif isinstance(ph, Bleed):
-            self._ctx = _Ctx(ph, q_bleed=float(ph.rate))
-        else:
-            self._ctx = _Ctx(ph)
+        self._drive = self._well.begin(
+            ph, t0=self._t0, p_bh=self.s.p, v_in=self._v_in0, v_ret=self._v_ret0, zeta=zeta,
+            where=phase_place(self._i_ph, cyc, len(sc.schedule.phases)))
+        self._q_pump = ph.pump_rate(0.0)
         max_d = ph.max_duration
         self._max_d = max_d
         self._limit = sc.max_phase_duration if max_d is None else min(
             max_d, sc.max_phase_duration)
         self._t_end = self._t0 + self._limit
-        self._rate_breaks = ([self._t0 + b for b in ph.breakpoints()]
-                             if isinstance(ph, Pump) else [])
-        self._ends = self._end_fns(ph, self._v_in0, self._v_ret0)
-
-    @staticmethod
-    def _end_fns(ph, v_in0: float, v_ret0: float) -> dict[str, Callable[[_State, float], float]]:
-        fns: dict[str, Callable[[_State, float], float]] = {}
-        pa = ph.pressure_at
-
-        def px(st, ps):
-            return st.p if pa == "bottomhole" else ps
-
-        if ph.pressure_above is not None:
-            thr = float(ph.pressure_above)
-            fns["pressure_above"] = lambda st, ps: thr - px(st, ps)
-        if ph.pressure_below is not None:
-            thr2 = float(ph.pressure_below)
-            fns["pressure_below"] = lambda st, ps: px(st, ps) - thr2
-        vt = ph.volume_target
-        if vt is not None:
-            if isinstance(ph, Pump):
-                fns["volume"] = lambda st, ps: (v_in0 + vt) - st.v_in
-            else:
-                fns["volume"] = lambda st, ps: (v_ret0 + vt) - st.v_ret
-        if isinstance(ph, Bleed):
-            fns["well_dead"] = lambda st, ps: ps
-        return fns
+        self._rate_breaks = [self._t0 + b for b in ph.breakpoints()]
+        self._ends = {name: (lambda st, ps, f=f: f(st.p, ps, st.v_in, st.v_ret))
+                      for name, f in self._drive.end_tests().items()}
 
     def _begin_phase(self) -> None:
-        sc, sim, s = self.sc, self.sim, self.s
+        sc, s = self.sc, self.s
         i_ph = self._i_ph
         cyc, ph = self._plan[i_ph]
         self._t0 = s.t
         self._v_in0, self._v_ret0 = s.v_in, s.v_ret
         self._setup_phase_context()
-        if isinstance(ph, Flowback):
-            if ph.zeta is not None:
-                zeta = float(ph.zeta)
-            else:
-                ps_static = surface_from_bottomhole(s.p, 0.0, sim.col)
-                try:
-                    zeta = calibrate_choke(float(ph.initial_rate), ps_static)
-                except InputError:
-                    raise InputError(
-                        f"phase {i_ph + 1} (cycle {cyc}) starts with surface pressure "
-                        f"{ps_static / 1e6:.3f} MPa; cannot calibrate the choke from "
-                        f"initial_rate", key=f"schedule.phases[{i_ph % len(sc.schedule.phases)}]"
-                        ".initial_rate", expected="flowback from a pressured well") from None
-            self._ctx.zeta = zeta
-        ctx = self._ctx
         # The state's return rate belongs to the previous phase; restate it for this one
         # so the trapezoidal choke flux starts from the right value.
-        s.ps, s.q_ret = sim.surface(s.p, ctx)
+        s.ps, s.q_ret = self._drive.surface(s.p, self._q_pump)
         self.events.append(Event(t=self._t0, text=f"cycle {cyc}: {ph.label}"))
         reason = ""
         # Already satisfied at the start?
@@ -1317,8 +1262,7 @@ class LumpedEngine:
             self.messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit "
                                  f"max_phase_duration {sc.max_phase_duration:g} s before its "
                                  f"end condition")
-        if isinstance(ph, Pump) and i_ph + 1 < n_ph and not isinstance(
-                self._plan[i_ph + 1][1], Pump):
+        if ph.pumps and i_ph + 1 < n_ph and not self._plan[i_ph + 1][1].pumps:
             # ISIP: the well pressure once the entry loss has gone, i.e. the fracture
             # pressure at shut-in (= the well pressure without entry loss or fracture).
             self.isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
@@ -1332,14 +1276,12 @@ class LumpedEngine:
     # ------------------------------------------------------------------ one loop pass
     def _iterate(self) -> bool:
         """One pass of the adaptive loop; False if the trial step was rejected."""
-        sc, sim, ctx = self.sc, self.sim, self._ctx
+        sc, sim, drive = self.sc, self.sim, self._drive
         s = self.s
-        ph = ctx.phase
-        t0, t_end = self._t0, self._t_end
+        t_end = self._t_end
         dt_out = float(sc.dt)
         self._n_loop += 1
-        if isinstance(ph, Pump):
-            ctx.q_pump = ph.rate_at(s.t - t0)
+        self._q_pump = q_pump = drive.pump_rate(s.t)
         k_next = math.floor(s.t / dt_out + 1e-9) + 1
         if k_next * dt_out - s.t < 1e-6 * dt_out:
             k_next += 1     # no round-off-sized steps after an event near a sample
@@ -1348,7 +1290,7 @@ class LumpedEngine:
         dt = min(self._dt_adapt, t_break - s.t)
         if dt <= 0.0:
             dt = t_break - s.t
-        st = sim.solve(s, dt, ctx)
+        st = sim.solve(s, dt, drive, q_pump)
         if (not st.jump and max(abs(st.p - s.p), abs(st.pf - s.pf)) > sc.dp_max
                 and dt > 1e-3):
             self._dt_adapt = 0.5 * dt
@@ -1377,15 +1319,16 @@ class LumpedEngine:
         if fired:
             best_dt = dt
             for name in fired:
-                dt_e = _locate(lambda d, fn=armed[name]: _g(sim, s, ctx, fn, d), dt)
+                dt_e = _locate(lambda d, fn=armed[name]: _g(sim, s, drive, q_pump, fn, d),
+                               dt)
                 best_dt = min(best_dt, dt_e)
             if best_dt < dt:
-                st = sim.solve(s, best_dt, ctx)
+                st = sim.solve(s, best_dt, drive, q_pump)
             hit = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
             sim.n_events += len(hit)
         if st.jump and self.fbp is None:   # an unstable jump not caught as an event
             self.fbp, self.breakdown_time = s.p, s.t
-        s = sim.accept(s, st, ctx)
+        s = sim.accept(s, st, q_pump)
         self._dt_adapt = min(dt_out, 2.0 * self._dt_adapt)
         reason = self._reason
         for name in hit:
@@ -1411,21 +1354,21 @@ class LumpedEngine:
                 self.reopening_ps.append(s.p)
                 s.sealed = False
                 s.pf = s.p
-                s = sim.accept(s, sim.solve(s, 0.0, ctx), ctx)
+                s = sim.accept(s, sim.solve(s, 0.0, drive, q_pump), q_pump)
             elif name == "breakdown":
                 # Hubbert-Willis initiation: the flaw becomes a fracture; it jumps at
                 # once if K_I(P_b, L_0) > K_Ic, else later ("unstable").
                 self.initiation_time, self.initiation_p = s.t, s.p
                 s.broken = True
                 s.L = sc.initial_flaw
-                st0 = sim.solve(s, 0.0, ctx)
+                st0 = sim.solve(s, 0.0, drive, q_pump)
                 if st0.jump and self.fbp is None:
                     self.fbp, self.breakdown_time = s.p, s.t
-                s = sim.accept(s, st0, ctx)
+                s = sim.accept(s, st0, q_pump)
             elif name == "unstable":
                 if self.fbp is None:
                     self.fbp, self.breakdown_time = s.p, s.t
-                s = sim.accept(s, sim.solve(s, 0.0, ctx, force_jump=True), ctx)
+                s = sim.accept(s, sim.solve(s, 0.0, drive, q_pump, force_jump=True), q_pump)
             elif not reason:
                 reason = name
         if not reason and s.t >= t_end - 1e-9:
@@ -1495,8 +1438,8 @@ def _view(s: _State, st: _Step) -> _State:
                   margin=st.margin)
 
 
-def _g(sim: _Sim, s: _State, ctx: _Ctx, fn, d: float) -> float:
-    st = sim.solve(s, d, ctx)
+def _g(sim: _Sim, s: _State, drive: PhaseDrive, q_pump: float, fn, d: float) -> float:
+    st = sim.solve(s, d, drive, q_pump)
     return fn(_view(s, st), st.ps)
 
 

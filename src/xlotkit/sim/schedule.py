@@ -20,6 +20,12 @@ falling to ``pressure_below`` (measured at ``pressure_at``: ``"bottomhole"`` or
 ``"surface"``, gauge). A stepped pump with no ``duration`` ends with its last step. Every
 phase needs at least one end condition.
 
+What a phase does at the well head is answered by the phase itself (``pumps``,
+``through_choke``, ``pump_rate(tau)``, ``fixed_return_rate``, ``breakpoints()``,
+``time_to_volume(v)``, ``volume_done(...)``, ``ends_when_dead``), so a simulator needs no
+dispatch on the phase types; :class:`xlotkit.sim.well.WellDrive` turns them, with the well's
+column and choke, into the rates and end tests every engine asks for.
+
 Cycles: the phase list is run ``cycles`` times; within it a new cycle starts at every pump
 phase that follows a non-pump phase (an XLOT cycle is a pressurisation and what follows);
 phases before the first pump (the well at rest before the test) belong to the first cycle.
@@ -34,7 +40,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Literal, Union
 
 from xlotkit.errors import InputError
-from xlotkit.sim.well import _check
+from xlotkit.checks import check_range as _check
 from xlotkit.units import parse_unit, to_si
 
 __all__ = ["Bleed", "Flowback", "Phase", "PressureAt", "Pump", "Schedule", "ShutIn",
@@ -54,6 +60,12 @@ class _PhaseBase:
     """End conditions common to all phases (see module docstring)."""
 
     kind: ClassVar[str] = ""
+    #: The phase pumps fluid into the well (a cycle starts at a pump phase).
+    pumps: ClassVar[bool] = False
+    #: The well returns through the surface choke (the rate follows the surface pressure).
+    through_choke: ClassVar[bool] = False
+    #: The phase ends when the surface pressure is gone (a bleed cannot draw a vacuum).
+    ends_when_dead: ClassVar[bool] = False
     duration: float | None = None
     pressure_above: float | None = None
     pressure_below: float | None = None
@@ -93,6 +105,37 @@ class _PhaseBase:
         """Volume end condition [m^3] (pumped or returned), None if there is none."""
         return getattr(self, "volume", None)
 
+    @property
+    def max_duration(self) -> float | None:
+        """Duration limit [s] or None."""
+        return None if self.duration is None else float(self.duration)
+
+    @property
+    def fixed_return_rate(self) -> float:
+        """Return rate at surface that does not depend on the pressure [m^3/s] (a bleed's
+        rate; 0 for the other phases, the choke's rate being the well's)."""
+        return 0.0
+
+    def pump_rate(self, tau: float) -> float:
+        """Pump rate [m^3/s] at time ``tau`` [s] into the phase (0 unless it pumps)."""
+        return 0.0
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times [s] into the phase where a rate set by the phase changes."""
+        return ()
+
+    def time_to_volume(self, volume: float) -> float | None:
+        """Time [s] into the phase at which ``volume`` [m^3] has been metered, when the
+        phase's rate does not depend on the pressure; None when it does (a flowback:
+        the volume end is then located as an event) or the phase meters nothing."""
+        return None
+
+    def volume_done(self, pumped: float, returned: float) -> float:
+        """The volume [m^3] this phase's volume end meters, from the volumes pumped and
+        returned since the phase began: the pumped volume for a pump phase, else the
+        returned one."""
+        return pumped if self.pumps else returned
+
 
 @dataclass(frozen=True)
 class Pump(_PhaseBase):
@@ -113,6 +156,7 @@ class Pump(_PhaseBase):
     """
 
     kind: ClassVar[str] = "pump"
+    pumps: ClassVar[bool] = True
     rate: float | None = None
     steps: tuple[tuple[float, float], ...] | None = None
     volume: float | None = None
@@ -151,6 +195,25 @@ class Pump(_PhaseBase):
             return math.fsum(d for d, _ in self.steps)
         return None
 
+    def pump_rate(self, tau: float) -> float:
+        """Pump rate [m^3/s] at time ``tau`` [s] into the phase (:meth:`rate_at`)."""
+        return self.rate_at(tau)
+
+    def time_to_volume(self, volume: float) -> float:
+        """Time [s] into the phase at which ``volume`` [m^3] has been pumped (inf if the
+        stepped rate ends at 0 before it)."""
+        if self.rate is not None:
+            return volume / self.rate
+        assert self.steps is not None
+        acc_v = acc_t = 0.0
+        for d, r in self.steps:
+            if r > 0 and acc_v + r * d >= volume:
+                return acc_t + (volume - acc_v) / r
+            acc_v += r * d
+            acc_t += d
+        last = self.steps[-1][1]
+        return acc_t + (volume - acc_v) / last if last > 0 else math.inf
+
     def rate_at(self, tau: float) -> float:
         """Pump rate [m^3/s] at time ``tau`` [s] into the phase (right-continuous)."""
         if self.rate is not None:
@@ -184,11 +247,6 @@ class ShutIn(_PhaseBase):
         self._validate_common()
         self._require_end()
 
-    @property
-    def max_duration(self) -> float | None:
-        """Duration limit [s] or None."""
-        return None if self.duration is None else float(self.duration)
-
 
 @dataclass(frozen=True, kw_only=True)
 class Flowback(_PhaseBase):
@@ -206,6 +264,7 @@ class Flowback(_PhaseBase):
     """
 
     kind: ClassVar[str] = "flowback"
+    through_choke: ClassVar[bool] = True
     zeta: float | None = None
     initial_rate: float | None = None
     volume: float | None = None
@@ -222,11 +281,6 @@ class Flowback(_PhaseBase):
         self._validate_common()
         self._require_end(self.volume)
 
-    @property
-    def max_duration(self) -> float | None:
-        """Duration limit [s] or None."""
-        return None if self.duration is None else float(self.duration)
-
 
 @dataclass(frozen=True)
 class Bleed(_PhaseBase):
@@ -241,6 +295,7 @@ class Bleed(_PhaseBase):
     """
 
     kind: ClassVar[str] = "bleed"
+    ends_when_dead: ClassVar[bool] = True
     rate: float = 0.0
     volume: float | None = None
 
@@ -252,9 +307,13 @@ class Bleed(_PhaseBase):
         self._require_end(self.volume)
 
     @property
-    def max_duration(self) -> float | None:
-        """Duration limit [s] or None."""
-        return None if self.duration is None else float(self.duration)
+    def fixed_return_rate(self) -> float:
+        """The bleed rate [m^3/s]."""
+        return float(self.rate)
+
+    def time_to_volume(self, volume: float) -> float:
+        """Time [s] into the phase at which ``volume`` [m^3] has been bled."""
+        return volume / self.rate
 
 
 Phase = Union[Pump, ShutIn, Flowback, Bleed]
@@ -301,11 +360,11 @@ class Schedule:
         pumped = False        # the current cycle has pumped already
         for _ in range(self.cycles):
             for ph in self.phases:
-                if cyc == 0 or (isinstance(ph, Pump) and not isinstance(prev, Pump)
+                if cyc == 0 or (ph.pumps and not (prev is not None and prev.pumps)
                                 and pumped):
                     cyc += 1
                     pumped = False
-                pumped = pumped or isinstance(ph, Pump)
+                pumped = pumped or ph.pumps
                 out.append((cyc, ph))
                 prev = ph
         return tuple(out)

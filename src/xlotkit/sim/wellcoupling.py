@@ -86,16 +86,15 @@ import numpy as np
 from scipy.optimize import brentq
 
 from xlotkit import formulas
+from xlotkit.checks import check_range as _check
 from xlotkit.errors import InputError, XlotkitError
-from xlotkit.sim.schedule import Bleed, Flowback, Pump, Schedule, ShutIn
+from xlotkit.sim.schedule import Flowback, Pump, Schedule, ShutIn
 from xlotkit.sim.well import (
     Column,
     Completion,
-    _check,
-    calibrate_choke,
-    choke_surface_pressure,
+    PhaseDrive,
+    WellDrive,
     hydrostatic_bottomhole,
-    surface_from_bottomhole,
     well_compliance,
 )
 
@@ -803,7 +802,7 @@ class WellCouplingResult:
 
 # =========================================================================== driver
 class _Well:
-    """Well side per unit height: storage c_w, pump and return rates."""
+    """Well side per unit height: storage c_w; rates and surface pressure from the drive."""
 
     def __init__(self, scene: WellCouplingScene, seg: SegmentModel):
         self.H = scene.height
@@ -814,29 +813,20 @@ class _Well:
             raise InputError("effective height leaves no well storage", key="effective_height",
                              expected="H with c_s H < C_total")
         self.c_tot = self.c_w + self.c_s
-        self.phase: Any = None
-        self.zeta = 0.0
+        self._head = WellDrive(self.col)
+        self.drive: PhaseDrive = self._head.idle()
 
-    def set_phase(self, phase: Any, p_bh: float) -> None:
-        self.phase = phase
-        if isinstance(phase, Flowback):
-            if phase.zeta is not None:
-                self.zeta = float(phase.zeta)
-            else:
-                ps = surface_from_bottomhole(p_bh, 0.0, self.col)
-                self.zeta = calibrate_choke(float(phase.initial_rate), ps)
+    def set_phase(self, phase: Any, p_bh: float, t0: float = 0.0, v_in: float = 0.0,
+                  v_ret: float = 0.0) -> None:
+        self.drive = self._head.begin(phase, t0=t0, p_bh=p_bh, v_in=v_in, v_ret=v_ret)
 
     def return_rate(self, p: float) -> float:
         """Surface returns [m^3/s] at bottom-hole pressure p."""
-        if isinstance(self.phase, Flowback):
-            return choke_surface_pressure(p, self.zeta, self.col)[1]
-        if isinstance(self.phase, Bleed):
-            return float(self.phase.rate)
-        return 0.0
+        return self.drive.return_rate(p)
 
     def outflow(self) -> Callable[[float], float] | None:
         """Per-unit-height outflow function, None when there is none."""
-        if isinstance(self.phase, (Flowback, Bleed)):
+        if self.drive.returns:
             return lambda p: self.return_rate(p) / self.H
         return None
 
@@ -847,11 +837,8 @@ class _Well:
         return self.c_s * (p_new - p_old)
 
     def surface(self, p: float, q_pump: float) -> float:
-        if isinstance(self.phase, Flowback):
-            return choke_surface_pressure(p, self.zeta, self.col)[0]
-        if isinstance(self.phase, Bleed):
-            return surface_from_bottomhole(p, -float(self.phase.rate), self.col)
-        return surface_from_bottomhole(p, q_pump, self.col)
+        """Surface pressure [Pa] at bottom-hole pressure p and pump rate q_pump."""
+        return self.drive.surface(p, q_pump)[0]
 
     def advance(self, p_w: float, dt: float, q_surf: float, q_seg: float,
                 extra_storage: float = 0.0, p_extra: float = 0.0) -> float:
@@ -1093,12 +1080,13 @@ def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None
     status, msg = "ok", f"{strategy}: schedule completed"
 
     for cycle, phase in scene.schedule.expanded():
-        well.set_phase(phase, p_w)
-        t0, vin0, vret0 = t, v_in, v_ret
+        well.set_phase(phase, p_w, t, v_in, v_ret)
+        drive = well.drive
+        t0 = t
         limit = phase.max_duration
         limit = scene.max_phase_duration if limit is None else min(limit,
                                                                    scene.max_phase_duration)
-        breaks = sorted(phase.breakpoints()) if isinstance(phase, Pump) else []
+        breaks = sorted(phase.breakpoints())
         end = None
         while end is None:
             tau = t - t0
@@ -1107,18 +1095,19 @@ def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None
                 if tau < b - 1e-9:
                     dt = min(dt, b - tau)
                     break
-            q_pump = phase.rate_at(tau) if isinstance(phase, Pump) else 0.0
-            if isinstance(phase, Pump) and phase.volume is not None and q_pump > 0:
-                dt = min(dt, (phase.volume - (v_in - vin0)) / q_pump)
-            if isinstance(phase, Bleed) and phase.volume is not None:
-                dt = min(dt, (phase.volume - (v_ret - vret0)) / phase.rate)
+            q_pump = phase.pump_rate(tau)
+            vt = phase.volume_target
+            # land a volume end metered at a known rate (pumped, or bled)
+            q_meter = q_pump if phase.pumps else phase.fixed_return_rate
+            if vt is not None and q_meter > 0:
+                dt = min(dt, (vt - drive.volume_done(v_in, v_ret)) / q_meter)
             if dt <= 1e-12:
                 end = "duration" if tau >= limit - 1e-9 else "volume"
                 break
             q_surf = q_pump / H
             try:
                 p_w, s, q_seg_vol, it, sol = _STEPPERS[strategy](
-                    well, seg, s, p_w, dt, q_surf, ctl, opt, isinstance(phase, Pump))
+                    well, seg, s, p_w, dt, q_surf, ctl, opt, phase.pumps)
             except SegmentStepFailed as exc:
                 # fixed steps: nothing to cut; report it and keep what was computed
                 status = "failed"
@@ -1131,8 +1120,7 @@ def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None
             v_in += q_pump * dt
             v_ret += q_ret * dt
             record(q_pump, q_ret, q_seg_vol * H / dt, it, sol)
-            end = _phase_end(phase, t - t0, limit, v_in - vin0, v_ret - vret0, p_w,
-                             hist["psurf"][-1])
+            end = _phase_end(drive, t - t0, limit, v_in, v_ret, p_w, hist["psurf"][-1])
         if end == "limit":
             status = "stopped"
             msg = (f"{strategy}: phase {phase.label!r} (cycle {cycle}) hit "
@@ -1156,18 +1144,19 @@ def run_well_coupling(scene: WellCouplingScene, strategy: Strategy | None = None
         wall_time=_time.perf_counter() - wall0)
 
 
-def _phase_end(phase: Any, tau: float, limit: float, v_pumped: float, v_returned: float,
+def _phase_end(drive: PhaseDrive, tau: float, limit: float, v_in: float, v_ret: float,
                p_bh: float, p_surf: float) -> str | None:
-    p = p_surf if phase.pressure_at == "surface" else p_bh
-    if phase.pressure_above is not None and p >= phase.pressure_above:
-        return "pressure_above"
-    if phase.pressure_below is not None and p <= phase.pressure_below:
-        return "pressure_below"
+    """The end reason of the phase after a step (None: it goes on): the drive's end tests
+    (a volume within 1e-12 of its target counts, the fixed steps land on it to round-off),
+    then the duration or the safety limit."""
+    phase = drive.phase
     vt = phase.volume_target
-    if vt is not None:
-        v = v_pumped if isinstance(phase, Pump) else v_returned
-        if v >= vt * (1.0 - 1e-12):
-            return "volume"
+    for name, g in drive.end_tests().items():
+        if name == "volume":
+            if drive.volume_done(v_in, v_ret) >= vt * (1.0 - 1e-12):
+                return name
+        elif g(p_bh, p_surf, v_in, v_ret) <= 0.0:
+            return name
     if tau >= limit - 1e-9:
         if phase.max_duration is not None and tau >= phase.max_duration - 1e-9:
             return "duration"

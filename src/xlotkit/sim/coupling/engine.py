@@ -106,14 +106,13 @@ from xlotkit.sim.mechanics import (
 from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
 from xlotkit.sim.output import Snapshot
-from xlotkit.sim.schedule import Bleed, Flowback, Phase, Pump, ShutIn
 from xlotkit.sim.scene import Scene
 from xlotkit.sim.well import (
     Column,
-    bottomhole_from_surface,
-    calibrate_choke,
-    choke_surface_pressure,
+    PhaseDrive,
+    WellDrive,
     hydrostatic_bottomhole,
+    phase_place,
     surface_from_bottomhole,
     well_compliance,
 )
@@ -128,8 +127,6 @@ PRESSURE_EVENT_TOL = 1e4
 VOLUME_EVENT_RTOL = 1e-3
 #: Crack residual (closed) hydraulic aperture [m].
 RESIDUAL_APERTURE = 1e-5
-#: Surface pressure [Pa] below which the choke law is linearised (keeps dQ/dp finite).
-_CHOKE_LINEAR = 1e4
 #: Rock bulk density [kg/m^3] for the crack-speed limit only (the model is quasi-static
 #: and has no other use for it); a typical sedimentary rock.
 ROCK_DENSITY = 2500.0
@@ -315,6 +312,8 @@ class MDEMEngine:
         self.cm, self.pw0 = build_model(sc)
         self.cm.well_rate = self._well_rate
         self.column = well_column(sc)
+        # the well head: rates, surface pressure and phase ends of the phase in force
+        self._well = WellDrive(self.column)
         num = sc.numerics
         self.control = CoupledControl(max_newton=int(num.max_newton),
                                       crack_speed=formulas.rayleigh_speed(
@@ -344,10 +343,11 @@ class MDEMEngine:
         self._h = min(1.0, self.scene.numerics.dt_max)
         self._i_ph = 0
         self._in_phase = False
-        self._ctx: dict[str, Any] = {"kind": "shut_in", "t0": 0.0, "rate": 0.0, "zeta": 0.0,
-                                     "steps": None}
+        self._drive: PhaseDrive = self._well.idle()
+        # time targets of the phase in force [s]: its end (duration, or a volume at a known
+        # rate), the safety limit and the rate steps
+        self._targets: dict[str, Any] = {}
         self._v_in = self._v_ret = self._v_out = 0.0
-        self._phase_v0 = (0.0, 0.0)
         self._retry: dict[str, Any] | None = None
         self._running = False      # the last step failed clusters into a falling p_w
         self._open_hist: tuple[np.ndarray, np.ndarray] | None = None
@@ -366,66 +366,9 @@ class MDEMEngine:
 
     # ------------------------------------------------------------------ well rate
     def _well_rate(self, t: float, p_w: float):
-        """``(Q, dQ/dp_w)`` of the current phase [m^3/s at surface density, per segment]."""
-        ctx = self._ctx
-        kind = ctx["kind"]
-        if kind == "pump":
-            return self._pump_rate(t), 0.0
-        if kind == "bleed":
-            return -float(ctx["rate"]), 0.0
-        if kind == "flowback":
-            zeta = float(ctx["zeta"])
-            if self.column.friction:
-                return self._choke_with_friction(p_w, zeta)
-            ps = self._surface(p_w, 0.0)
-            dp = 1.0
-            ps2 = self._surface(p_w + dp, 0.0)
-            dps = (ps2 - ps) / dp
-
-            def q(p: float) -> tuple[float, float]:
-                if p <= 0.0:
-                    return 0.0, 0.0
-                if p < _CHOKE_LINEAR:
-                    return zeta * p / math.sqrt(_CHOKE_LINEAR), zeta / math.sqrt(_CHOKE_LINEAR)
-                return zeta * math.sqrt(p), 0.5 * zeta / math.sqrt(p)
-
-            qv, dq = q(ps)
-            return -qv, -dq * dps
-        return 0.0, 0.0
-
-    def _choke_with_friction(self, p_w: float, zeta: float) -> tuple[float, float]:
-        """``(Q, dQ/dp_w)`` of the choke when the returning flow loses pressure to pipe
-        friction on its way up: ``p_s`` solves ``p_w = p_bh(p_s, -zeta sqrt(p_s))``
-        (:func:`~xlotkit.sim.well.choke_surface_pressure`, as the lumped model does), and
-        ``dQ/dp_w = (dQ/dp_s) / (dp_bh/dp_s)`` with the column's total derivative taken by
-        a difference of 1 kPa in ``p_s``. Below :data:`_CHOKE_LINEAR` at surface the law is
-        the linearised one without friction (the rate is then a trickle)."""
-        ps, q = choke_surface_pressure(p_w, zeta, self.column)
-        if ps < _CHOKE_LINEAR:
-            ps = self._surface(p_w, 0.0)
-            if ps <= 0.0:
-                return 0.0, 0.0
-            k = zeta / math.sqrt(_CHOKE_LINEAR)
-            dps = self._surface(p_w + 1.0, 0.0) - ps
-            return -k * ps, -k * dps
-        dp = 1e3
-
-        def p_bh(p_s: float) -> float:
-            return bottomhole_from_surface(p_s, -zeta * math.sqrt(p_s), self.column)
-
-        dpbh = (p_bh(ps + dp) - p_bh(ps - dp)) / (2.0 * dp)
-        return -q, -(0.5 * zeta / math.sqrt(ps)) / dpbh
-
-    def _pump_rate(self, t: float) -> float:
-        ctx = self._ctx
-        if ctx["steps"] is None:
-            return float(ctx["rate"])
-        tau, acc = t - ctx["t0"], 0.0
-        for d, r in ctx["steps"]:
-            acc += d
-            if tau < acc:
-                return float(r)
-        return float(ctx["steps"][-1][1])
+        """``(Q, dQ/dp_w)`` of the phase in force [m^3/s at surface density, per segment]
+        (:meth:`xlotkit.sim.well.PhaseDrive.rate`)."""
+        return self._drive.rate(t, p_w)
 
     def _surface(self, p_bh: float, rate: float) -> float:
         """Surface gauge pressure [Pa] from the bottom-hole pressure and the rate."""
@@ -454,81 +397,59 @@ class MDEMEngine:
 
     def _phase_fraction(self) -> float:
         _, ph = self._plan[self._i_ph]
-        ctx = self._ctx
-        tau = self.time - ctx["t0"]
+        tau = self.time - self._drive.t0
         fr = 0.0
         if ph.max_duration:
             fr = max(fr, tau / ph.max_duration)
         vt = ph.volume_target
         if vt:
-            dv = (self._v_in - self._phase_v0[0]) if isinstance(ph, Pump) else (
-                self._v_ret - self._phase_v0[1])
-            fr = max(fr, dv / vt)
+            fr = max(fr, self._drive.volume_done(self._v_in, self._v_ret) / vt)
         return fr
 
     def _begin_phase(self) -> str:
-        """Set up the phase context; returns an end reason if already met."""
+        """Set up the phase's drive and time targets; returns an end reason if already met."""
         cyc, ph = self._plan[self._i_ph]
         st = self.stepper.state
         t0 = st.t
-        ctx: dict[str, Any] = {"kind": ph.kind, "t0": t0, "rate": 0.0, "zeta": 0.0,
-                               "steps": None, "t_end": math.inf}
-        if isinstance(ph, Pump):
-            if ph.rate is not None:
-                ctx["rate"] = float(ph.rate)
-            else:
-                ctx["steps"] = [list(s) for s in ph.steps]
-        elif isinstance(ph, Bleed):
-            ctx["rate"] = float(ph.rate)
-        elif isinstance(ph, Flowback):
-            if ph.zeta is not None:
-                ctx["zeta"] = float(ph.zeta)
-            else:
-                ps = self._surface(st.p_w, 0.0)
-                try:
-                    ctx["zeta"] = calibrate_choke(float(ph.initial_rate), ps)
-                except InputError:
-                    raise InputError(
-                        f"phase {self._i_ph + 1} (cycle {cyc}) starts with surface pressure "
-                        f"{ps / 1e6:.3f} MPa; cannot calibrate the choke from initial_rate",
-                        key="schedule.phase.initial_rate", file=self.scene.source_file,
-                        expected="flowback from a pressured well") from None
-        # time targets: duration, and volume at a known rate
-        t_end = math.inf if ph.max_duration is None else t0 + ph.max_duration
-        vt = ph.volume_target
-        if vt is not None and isinstance(ph, Pump):
-            t_end = min(t_end, t0 + _time_for_volume(ph, vt))
-        if vt is not None and isinstance(ph, Bleed):
-            t_end = min(t_end, t0 + vt / ph.rate)
-        limit = t0 + self.scene.numerics.max_phase_duration
-        ctx["t_end"] = t_end
-        ctx["limit"] = limit
-        ctx["breaks"] = [t0 + b for b in (ph.breakpoints() if isinstance(ph, Pump) else ())]
-        self._ctx = ctx
-        self._phase_v0 = (self._v_in, self._v_ret)
+        try:
+            self._drive = self._well.begin(
+                ph, t0=t0, p_bh=st.p_w, v_in=self._v_in, v_ret=self._v_ret,
+                where=phase_place(self._i_ph, cyc, len(self.scene.schedule.phases)))
+        except InputError as exc:
+            raise InputError(exc.message, key=exc.key, file=self.scene.source_file,
+                             expected=exc.expected) from None
+        self._targets = self._phase_targets(ph, t0)
         self._in_phase = True
         self._h = min(max(self._h, 1e-3), self.scene.numerics.dt_max)
         self.events.append((t0, f"cycle {cyc}: {ph.label}"))
-        g = self._pressure_ends(ph, st.p_w, self._ctx)
-        for name, val in g.items():
+        for name, val in self._end_margins(st.p_w, self._v_in, self._v_ret).items():
             if val <= 0.0:
                 return name
         return ""
 
-    def _pressure_ends(self, ph: Phase, p_w: float, ctx) -> dict[str, float]:
-        """Event functions of the phase's pressure ends (<= 0: reached)."""
-        out: dict[str, float] = {}
-        if ph.pressure_above is None and ph.pressure_below is None:
-            return out
-        if ph.pressure_at == "surface":
-            q, _ = self._well_rate(self.time, p_w)
-            p = self._surface(p_w, q)
-        else:
-            p = p_w
-        if ph.pressure_above is not None:
-            out["pressure_above"] = float(ph.pressure_above) - p
-        if ph.pressure_below is not None:
-            out["pressure_below"] = p - float(ph.pressure_below)
+    def _phase_targets(self, ph, t0: float) -> dict[str, Any]:
+        """The phase's time targets from its start ``t0``: ``t_end`` (duration, and a volume
+        at a known rate), ``limit`` (``numerics.max_phase_duration``) and the rate steps."""
+        t_end = math.inf if ph.max_duration is None else t0 + ph.max_duration
+        vt = ph.volume_target
+        tv = None if vt is None else ph.time_to_volume(vt)
+        if tv is not None:
+            t_end = min(t_end, t0 + tv)
+        return {"t_end": t_end, "limit": t0 + self.scene.numerics.max_phase_duration,
+                "breaks": [t0 + b for b in ph.breakpoints()]}
+
+    def _end_margins(self, p_w: float, v_in: float, v_ret: float) -> dict[str, float]:
+        """The phase's end tests located as events (``<= 0``: met) at well pressure ``p_w``
+        and volumes ``v_in``/``v_ret``: pressure ends (at the surface: the column at the
+        rate of the phase at the present time), a bleed's dead well, and a volume that is
+        not a time target (a flowback's)."""
+        d = self._drive
+        ph = d.phase
+        ps = d.surface_at(self.time, p_w) if d.needs_surface else math.nan
+        out = d.end_margins(p_w, ps, v_in, v_ret)
+        vt = ph.volume_target
+        if "volume" in out and ph.time_to_volume(vt) is not None:
+            del out["volume"]              # landed on as a time target
         return out
 
     def _end_phase(self, reason: str) -> None:
@@ -539,13 +460,14 @@ class MDEMEngine:
             self.messages.append(f"phase {self._i_ph + 1} ({ph.label}, cycle {cyc}) hit "
                                  f"max_phase_duration {self.scene.numerics.max_phase_duration:g}"
                                  " s before its end condition")
-        if isinstance(ph, Pump):
+        if ph.pumps:
             self.truth_events["last_pump_pressure"][str(cyc)] = st.p_w
         self.phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label,
-                                "t_start": self._ctx["t0"], "t_end": st.t, "end": reason})
+                                "t_start": self._drive.t0, "t_end": st.t, "end": reason})
         self._i_ph += 1
         self._in_phase = False
-        self._ctx = {"kind": "shut_in", "t0": st.t, "rate": 0.0, "zeta": 0.0, "steps": None}
+        self._drive = self._well.idle(st.t, self._v_in, self._v_ret)
+        self._targets = {}
 
     def step(self) -> MDEMStepOutcome:
         """One pass: a phase start, an accepted step (maybe ending the phase) or a rejected
@@ -565,7 +487,7 @@ class MDEMEngine:
     def _trial(self) -> MDEMStepOutcome:
         num = self.scene.numerics
         stp = self.stepper
-        ctx = self._ctx
+        ctx = self._targets
         _, ph = self._plan[self._i_ph]
         old = stp.state
         t = old.t
@@ -610,16 +532,14 @@ class MDEMEngine:
             self._h = max(h_try * self.tsc.cut, num.dt_min)
             return MDEMStepOutcome(False, t, "rejected: " + r.reason)
         new = stp.state
-        # event location: pressure ends and flowback volume
-        ends = self._pressure_ends(ph, new.p_w, ctx)
+        # event location: pressure ends and a flowback's volume
         vt = ph.volume_target
         dv_ret = -r.injected_mass / self.rho0 if r.injected_mass < 0 else 0.0
-        if vt is not None and isinstance(ph, Flowback):
-            ends["volume"] = vt - (self._v_ret + dv_ret - self._phase_v0[1])
+        ends = self._end_margins(new.p_w, self._v_in, self._v_ret + dv_ret)
         hit = {k: v for k, v in ends.items() if v <= 0.0}
         if hit and h_try > num.dt_min * (1.0 + 1e-9):
             name, g_new = min(hit.items(), key=lambda kv: kv[1])
-            g_old = self._event_before(ph, old, name)
+            g_old = self._end_margins(old.p_w, self._v_in, self._v_ret)[name]
             tol = (PRESSURE_EVENT_TOL if name != "volume" else VOLUME_EVENT_RTOL * vt)
             tries = 0 if self._retry is None else self._retry["tries"]
             if -g_new > tol and tries < 8 and g_old > 0:
@@ -661,8 +581,8 @@ class MDEMEngine:
             reason = min(hit.items(), key=lambda kv: kv[1])[0]
         elif new.t >= ctx["t_end"] * (1 - 1e-13) - 1e-12:
             reason = "volume" if (ph.volume_target is not None and (
-                ph.max_duration is None or ctx["t_end"] < ctx["t0"] + ph.max_duration - 1e-9)
-            ) else "duration"
+                ph.max_duration is None
+                or ctx["t_end"] < self._drive.t0 + ph.max_duration - 1e-9)) else "duration"
         elif new.t >= ctx["limit"] * (1 - 1e-13) - 1e-12:
             reason = "limit"
         if reason:
@@ -683,17 +603,12 @@ class MDEMEngine:
         _, _, wn, _ = self.cm.crack_permeability(cs, np.asarray(st.mechanics.gap))
         return np.where(cs != 0, (wn > 0).astype(np.int64), -1)
 
-    def _event_before(self, ph: Phase, old: CoupledState, name: str) -> float:
-        if name == "volume":
-            return float(ph.volume_target) - (self._v_ret - self._phase_v0[1])
-        return self._pressure_ends(ph, old.p_w, self._ctx)[name]
-
-    def _track_events(self, ph: Phase, old: CoupledState, new: CoupledState, r) -> None:
+    def _track_events(self, ph, old: CoupledState, new: CoupledState, r) -> None:
         te = self.truth_events
         if te["initiation_time"] is None and new.n_failed > 0:
             te["initiation_time"] = new.t
             te["initiation_pressure"] = new.p_w
-        if isinstance(ph, Pump) and te["breakdown_time"] is None and new.n_failed > 0:
+        if ph.pumps and te["breakdown_time"] is None and new.n_failed > 0:
             # breakdown: the first drop of the well pressure while pumping with a crack
             if new.p_w < old.p_w:
                 te["fbp"] = old.p_w
@@ -774,9 +689,10 @@ class MDEMEngine:
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
             "h": self._h, "i_ph": self._i_ph, "in_phase": self._in_phase,
-            "ctx": self._ctx,            # json writes inf as Infinity and reads it back
+            # json writes inf as Infinity and reads it back
+            "ctx": {"t0": self._drive.t0, "zeta": self._drive.zeta, **self._targets},
             "v_in": self._v_in, "v_ret": self._v_ret, "v_out": self._v_out,
-            "phase_v0": list(self._phase_v0), "retry": self._retry,
+            "phase_v0": [self._drive.v_in0, self._drive.v_ret0], "retry": self._retry,
             "running": self._running,
             "phases_out": self.phases_out, "events": self.events, "status": self.status,
             "messages": self.messages, "truth_events": self.truth_events,
@@ -808,9 +724,17 @@ class MDEMEngine:
         self._rows = {k: arr[f"row.{k}"].astype(float).tolist() for k in _ROW_KEYS}
         self._h = float(scal["h"])
         self._i_ph, self._in_phase = int(scal["i_ph"]), bool(scal["in_phase"])
-        self._ctx = dict(scal["ctx"])
+        ctx = dict(scal["ctx"])
         self._v_in, self._v_ret, self._v_out = scal["v_in"], scal["v_ret"], scal["v_out"]
-        self._phase_v0 = tuple(scal["phase_v0"])
+        v_in0, v_ret0 = scal["phase_v0"]
+        if self._in_phase:
+            _, ph = self._plan[self._i_ph]
+            self._drive = self._well.begin(ph, t0=ctx["t0"], p_bh=st.p_w, v_in=v_in0,
+                                           v_ret=v_ret0, zeta=ctx["zeta"])
+            self._targets = {k: ctx[k] for k in ("t_end", "limit", "breaks")}
+        else:
+            self._drive = self._well.idle(ctx["t0"], v_in0, v_ret0)
+            self._targets = {}
         self._retry = scal["retry"]
         self._running = bool(scal.get("running", False))
         self._open_hist = ((arr["open_hist.open"].astype(np.int64),
@@ -919,20 +843,6 @@ class MDEMEngine:
             out["tensile_strength"] = float(np.mean(
                 np.asarray(self.cm.mechanics.tensile_strength)[sel]))
         return out
-
-
-def _time_for_volume(ph: Pump, volume: float) -> float:
-    """Time [s] into a pump phase at which ``volume`` [m^3] has been pumped."""
-    if ph.rate is not None:
-        return volume / ph.rate
-    acc_v = acc_t = 0.0
-    for d, r in ph.steps:
-        if r > 0 and acc_v + r * d >= volume:
-            return acc_t + (volume - acc_v) / r
-        acc_v += r * d
-        acc_t += d
-    last = ph.steps[-1][1]
-    return acc_t + (volume - acc_v) / last if last > 0 else math.inf
 
 
 def _scalar(v: Any) -> Any:

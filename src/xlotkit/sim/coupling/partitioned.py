@@ -78,6 +78,7 @@ from xlotkit.sim.coupling.segment import (
 )
 from xlotkit.sim.coupling.stepper import CoupledCounters, CoupledStepper, StepResult
 from xlotkit.sim.scene import PARTITIONED_COUPLINGS, Scene
+from xlotkit.sim.well import PhaseDrive
 from xlotkit.sim.wellcoupling import (
     ControllerMemory,
     CouplingOptions,
@@ -277,9 +278,9 @@ class WellCoupledStepper:
     rate : callable ``(t, p_w) -> Q`` or ``-> (Q, dQ/dp_w)``
         The schedule's net surface rate into the well [m^3/s at the reference density,
         whole slab] as a function of time and the well's BHP (the engine's well rate).
-    phase_kind : callable ``() -> str``
-        The kind of the current phase (``"pump"``, ``"shut_in"``, ``"flowback"``,
-        ``"bleed"``): pump rates are the well's inflow, the others' rates its returns.
+    drive : callable ``() -> PhaseDrive``
+        The phase in force (:class:`xlotkit.sim.well.PhaseDrive`): while it pumps the rate
+        is the well's inflow, while it returns (choke or bleed) the rate is its outflow.
 
     Attributes
     ----------
@@ -298,7 +299,7 @@ class WellCoupledStepper:
 
     def __init__(self, segment: CoupledSegment, well: WellSide2D, strategy: str,
                  options: CouplingOptions, state: WellCoupledState, rate: RateFunction,
-                 phase_kind: Callable[[], str]) -> None:
+                 drive: Callable[[], PhaseDrive]) -> None:
         if strategy not in PARTITIONED:
             raise InputError(f"unknown partitioned coupling {strategy!r}", key="coupling",
                              expected=", ".join(PARTITIONED))
@@ -307,7 +308,7 @@ class WellCoupledStepper:
         self.strategy = strategy
         self.options = options
         self.rate = rate
-        self.phase_kind = phase_kind
+        self.drive = drive
         self.counters = CoupledCounters()
         self.coupling = CouplingCounters()
         self.history: list[StepResult] = []
@@ -363,10 +364,10 @@ class WellCoupledStepper:
         old = self._state
         h = self.segment.height
         t_mid = old.t + 0.5 * dt
-        kind = self.phase_kind()
-        pumping = kind == "pump"
+        drive = self.drive()
+        pumping = drive.pumps
         q_surf = self._q(t_mid, old.well_pressure) / h if pumping else 0.0
-        if kind in ("flowback", "bleed"):
+        if drive.returns:
             self.well.set_outflow(lambda p: -self._q(t_mid, p) / h)
         else:
             self.well.set_outflow(None)
@@ -513,7 +514,7 @@ class PartitionedMDEMEngine(MDEMEngine):
         mem = ControllerMemory(segment_compliance=seg.storage)
         self.stepper = WellCoupledStepper(
             seg, well, self.strategy, self.options, WellCoupledState.of(s0, plain.p_w, mem),
-            rate=self._well_rate, phase_kind=lambda: str(self._ctx["kind"]))
+            rate=self._well_rate, drive=lambda: self._drive)
 
     def _reject_step(self, old: CoupledState, new: CoupledState) -> str | None:
         """The coupling rule: reject a step that drove the segment away from the well.

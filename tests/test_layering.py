@@ -1,0 +1,120 @@
+"""The import layering of src/xlotkit (docs/architecture.md), read from the source with ast.
+
+Every ``import`` and ``from ... import`` in every module is checked, at any depth (a
+function-level import is still a dependency). The rules:
+
+* the ground floor (closed forms, units, errors, the record, the log writer, atomic
+  writes) imports nothing from ``xlotkit.sim`` or ``xlotkit.interpret``;
+* ``xlotkit.sim`` imports nothing from ``xlotkit.interpret`` (the simulator writes its log
+  with the ground floor's writer);
+* configuration (``xlotkit.sim.scene``, the schedule) imports no engine module.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+PKG = SRC / "xlotkit"
+
+#: Modules of the ground floor (dotted names).
+GROUND = ("xlotkit.formulas", "xlotkit.units", "xlotkit.errors", "xlotkit.record",
+          "xlotkit.logfile", "xlotkit.atomic", "xlotkit.checks")
+
+#: Configuration: the scene model and its validation, the test program.
+CONFIGURATION = ("xlotkit.sim.scene", "xlotkit.sim.schedule")
+
+#: Engine modules: the simulators and their drivers (what configuration must not import).
+ENGINES = ("xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.mechanics",
+           "xlotkit.sim.flow", "xlotkit.sim.mesh", "xlotkit.sim.wellcoupling",
+           "xlotkit.sim.run")
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(SRC).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    """(line, absolute dotted module) of every import in the file."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    me = _module_name(path)
+    package = me if path.name == "__init__.py" else me.rpartition(".")[0]
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            out.append((node.lineno, mod))
+            # ``from xlotkit.sim import run`` imports the module xlotkit.sim.run
+            out += [(node.lineno, f"{mod}.{a.name}") for a in node.names]
+    return out
+
+
+def _within(mod: str, prefixes) -> bool:
+    return any(mod == p or mod.startswith(p + ".") for p in prefixes)
+
+
+def _modules():
+    return sorted(PKG.rglob("*.py"))
+
+
+def _violations(sources, forbidden) -> list[str]:
+    bad = []
+    for path in _modules():
+        name = _module_name(path)
+        if not _within(name, sources):
+            continue
+        for line, mod in _imports(path):
+            if _within(mod, forbidden):
+                bad.append(f"{path.relative_to(SRC)}:{line}: {name} imports {mod}")
+    return bad
+
+
+def test_the_tree_has_the_layers_it_is_checked_for():
+    names = {_module_name(p) for p in _modules()}
+    for mod in (*GROUND, *CONFIGURATION):
+        assert mod in names, f"{mod} is not a module any more: update the layering rules"
+
+
+def test_ground_floor_imports_nothing_from_sim_or_interpret():
+    assert _violations(GROUND, ("xlotkit.sim", "xlotkit.interpret")) == []
+
+
+def test_sim_imports_nothing_from_interpret():
+    assert _violations(("xlotkit.sim",), ("xlotkit.interpret",)) == []
+
+
+def test_configuration_imports_no_engine():
+    assert _violations(CONFIGURATION, ENGINES) == []
+
+
+@pytest.mark.parametrize("source, forbidden, expect", [
+    ("from xlotkit.sim.lumped import LumpedScene\n", ENGINES, 1),
+    ("def f():\n    from xlotkit.sim import run\n", ENGINES, 1),
+    ("from xlotkit.sim.well import Column\n", ENGINES, 0),
+    ("from . import engine\n", ("xlotkit.sim.scene.engine",), 1),
+])
+def test_the_checker_sees_every_import_form(tmp_path, monkeypatch, source, forbidden, expect):
+    # a throw-away module inside a copy of the package layout
+    pkg = tmp_path / "xlotkit" / "sim" / "scene"
+    pkg.mkdir(parents=True)
+    (tmp_path / "xlotkit" / "__init__.py").write_text("")
+    (tmp_path / "xlotkit" / "sim" / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "probe.py").write_text(source)
+    monkeypatch.setattr(__import__(__name__), "SRC", tmp_path)
+    monkeypatch.setattr(__import__(__name__), "PKG", tmp_path / "xlotkit")
+    assert len(_violations(("xlotkit.sim.scene",), forbidden)) == expect
