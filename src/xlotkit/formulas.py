@@ -15,7 +15,8 @@ Wellbore stresses (thesis App. C)
 * :func:`hubbert_willis` -- breakdown pressure of an impermeable wall,
   ``P_b = 3 sigma_h - sigma_H - p0 + T0`` (Eq. C.11);
 * :func:`reopening_pressure` -- reopening of an existing fracture at the wall,
-  ``P_r = 3 sigma_h - sigma_H - p0`` (Eq. C.13).
+  ``P_r = 3 sigma_h - sigma_H - p0`` (Eq. C.13), and :func:`wellbore_reopening_pressure`
+  with the far field's floor ``max(sigma_h, P_r)``.
 
 Fractures (Sneddon, LEFM)
 -------------------------
@@ -62,6 +63,7 @@ __all__ = [
     "reopening_pressure",
     "sneddon_width",
     "wall_leak_index",
+    "wellbore_reopening_pressure",
 ]
 
 
@@ -82,6 +84,15 @@ def reopening_pressure(sigma_h, sigma_H, p0):
     """Well pressure that reopens a fracture held shut by the wall's hoop stress,
     ``3 sigma_h - sigma_H - p0`` [Pa] (thesis Eq. C.13: Eq. C.11 with ``T0 = 0``)."""
     return 3.0 * sigma_h - sigma_H - p0
+
+
+def wellbore_reopening_pressure(sigma_h, sigma_H, p0):
+    """Reopening pressure of a fracture whose mouth lies in the borehole wall
+    ``max(sigma_h, 3 sigma_h - sigma_H - p0)`` [Pa]: the wall's hoop stress holds it shut
+    up to :func:`reopening_pressure`, and where that is below ``sigma_h`` (``sigma_H >
+    2 sigma_h - p0``) the far field still holds the faces shut up to ``sigma_h``
+    (scalars)."""
+    return max(sigma_h, reopening_pressure(sigma_h, sigma_H, p0))
 
 
 def kirsch_polar(r, theta, a, sigma_x, sigma_y, p_w, tau_xy=0.0):

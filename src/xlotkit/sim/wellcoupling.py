@@ -88,6 +88,7 @@ from scipy.optimize import brentq
 from xlotkit import formulas
 from xlotkit.checks import check_range as _check
 from xlotkit.errors import InputError, XlotkitError
+from xlotkit.sim.scene.sections import CouplingOptions
 from xlotkit.sim.schedule import Flowback, Pump, Schedule, ShutIn
 from xlotkit.sim.well import (
     Column,
@@ -460,60 +461,6 @@ def _solve_increasing(f: Callable[[float], float], x0: float, slope_min: float) 
         d *= 2.0
         x1 = x0 + d
     raise SegmentError("no root found", key="segment.inflow")
-
-
-# =========================================================================== options
-@dataclass(frozen=True, kw_only=True)
-class CouplingOptions:
-    """Tuning of the partitioned schemes (ignored by ``monolithic``).
-
-    Attributes
-    ----------
-    wfd_tolerance : float
-        ``eps_BHP,max``: relative BHP error (Eq. 4.17a) accepted by WFD. Default 9e-4, the
-        thesis script's value (27 kPa at 30 MPa).
-    wfd_rate_tolerance : float
-        ``eps_LO,max``: relative leak-rate change (Eq. 4.17b) checked on the first iteration
-        of a step (thesis script: 1e-3).
-    wfd_max_iterations : int
-        Segment calls per step before WFD gives up and keeps the least-error iterate
-        (thesis script: 3; 10 here, enough for the breakdown step at the default tolerance).
-    wfd_calibration : float
-        Damping of the first (calibration) update ``Q* <- Q* + d (Q_LO - Q*)``.
-    wfc_gain : float
-        Normalised WFC gain ``G`` [-]: each step the rate into the segment changes by
-        ``G c_eff (p_w - p_s) / dt`` (the sum of the thesis's per-step errors is the present
-        mismatch; ``c_eff`` the series compliance of well and segment), i.e. ``G`` times the
-        volume that would equalise the two pressures, spread over one step (with adaptive
-        steps, over the step the carried rate was set for when the present one is shorter:
-        :func:`_step_wfc`).
-    wfc_damping : float
-        WFC damping ``gamma`` (Eq. 4.22; thesis example 0.05).
-    wfdmod_gain, wfdmod_damping : float
-        Gain and damping of Eq. 4.23 (same normalisation as ``wfc_gain``).
-    """
-
-    wfd_tolerance: float = 9e-4
-    wfd_rate_tolerance: float = 1e-3
-    wfd_max_iterations: int = 10
-    wfd_calibration: float = 1.0
-    wfc_gain: float = 0.25
-    wfc_damping: float = 0.05
-    wfdmod_gain: float = 0.5
-    wfdmod_damping: float = 0.1
-
-    def __post_init__(self) -> None:
-        _check("wfd_tolerance", self.wfd_tolerance, lo=0.0, hi=1.0, lo_open=True)
-        _check("wfd_rate_tolerance", self.wfd_rate_tolerance, lo=0.0, hi=10.0, lo_open=True)
-        if isinstance(self.wfd_max_iterations, bool) or not isinstance(
-                self.wfd_max_iterations, int) or not 1 <= self.wfd_max_iterations <= 1000:
-            raise InputError(f"value {self.wfd_max_iterations!r} is out of range",
-                             key="wfd_max_iterations", expected="an integer in [1, 1000]")
-        _check("wfd_calibration", self.wfd_calibration, lo=0.0, hi=10.0, lo_open=True)
-        _check("wfc_gain", self.wfc_gain, lo=0.0, hi=10.0)
-        _check("wfc_damping", self.wfc_damping, lo=0.0, hi=1.0, hi_open=True)
-        _check("wfdmod_gain", self.wfdmod_gain, lo=0.0, hi=10.0)
-        _check("wfdmod_damping", self.wfdmod_damping, lo=0.0, hi=1.0, hi_open=True)
 
 
 # =========================================================================== scene

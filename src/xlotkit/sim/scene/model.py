@@ -1,0 +1,331 @@
+"""The scene: sections, schedule, model choice, seeds and the lumped model's scene of it."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any, Literal
+
+from xlotkit import formulas
+from xlotkit.errors import InputError
+from xlotkit.sim.scene.keys import PARTITIONED_COUPLINGS, Coupling, Model, _validate
+from xlotkit.sim.scene.lumped import LumpedScene
+from xlotkit.sim.scene.sections import (
+    _SECTION_TYPES,
+    CompletionOptions,
+    Effects,
+    Fluid,
+    Geometry,
+    LumpedOptions,
+    MeshOptions,
+    Numerics,
+    OutputOptions,
+    Rock,
+    Stresses,
+    WellCouplingOptions,
+)
+from xlotkit.sim.schedule import Schedule
+from xlotkit.sim.well import Completion, well_compliance
+
+__all__ = ["Scene", "carter_coefficient"]
+
+#: Combined Carter coefficient of the rock (:func:`xlotkit.formulas.carter_coefficient`).
+carter_coefficient = formulas.carter_coefficient
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene:
+    """A validated simulation scene (SI inside; see the module docstring for the file).
+
+    Attributes
+    ----------
+    schedule : Schedule
+        The test program.
+    geometry, mesh, rock, stresses, fluid, completion, numerics, effects, output, lumped,
+        well_coupling
+        The sections (defaults where a section is absent).
+    model : {"auto", "lumped", "mdem"}
+    coupling : {"monolithic", "wfd", "wfc", "wfdmod"}
+    seed : int
+        Master seed.
+    title : str
+    given : frozenset of str
+        Sections present in the scene file (a ``[mesh]`` section asks for the 2D model).
+    source_text : str or None
+        The scene file's text, kept for the outputs.
+    source_file : str or None
+        Where it was read from.
+    """
+
+    schedule: Schedule
+    geometry: Geometry = field(default_factory=Geometry)
+    mesh: MeshOptions = field(default_factory=MeshOptions)
+    rock: Rock = field(default_factory=Rock)
+    stresses: Stresses = field(default_factory=Stresses)
+    fluid: Fluid = field(default_factory=Fluid)
+    completion: CompletionOptions = field(default_factory=CompletionOptions)
+    numerics: Numerics = field(default_factory=Numerics)
+    effects: Effects = field(default_factory=Effects)
+    output: OutputOptions = field(default_factory=OutputOptions)
+    lumped: LumpedOptions = field(default_factory=LumpedOptions)
+    well_coupling: WellCouplingOptions = field(default_factory=WellCouplingOptions)
+    model: Model = "auto"
+    coupling: Coupling = "monolithic"
+    seed: int = 0
+    title: str = ""
+    given: frozenset[str] = frozenset()
+    source_text: str | None = None
+    source_file: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.schedule, Schedule):
+            raise InputError(f"not a Schedule: {self.schedule!r}", key="schedule",
+                             expected="a xlotkit.sim.schedule.Schedule")
+        for name, cls in _SECTION_TYPES.items():
+            if not isinstance(getattr(self, name), cls):
+                raise InputError(f"not a {cls.__name__}: {getattr(self, name)!r}", key=name,
+                                 expected=f"a xlotkit.sim.scene.{cls.__name__}")
+        _validate(self, "")
+        object.__setattr__(self, "given", frozenset(self.given))
+        self.completion.completion(self.geometry, self.fluid)
+        if self.effects.fracture_plane and not self.mesh.fracture_band:
+            raise InputError("effects.fracture_plane needs a fracture band",
+                             key="effects.fracture_plane",
+                             expected="mesh.fracture_band = true, or fracture_plane = false")
+        if self.model == "lumped" and self.two_d_reasons:
+            key = self.two_d_reasons[0]
+            raise InputError(f"model = 'lumped' cannot simulate {key}", key=key,
+                             expected="model = 'mdem' or 'auto', or drop " + key)
+        if self.coupling in PARTITIONED_COUPLINGS:
+            self._check_partitioned()
+        if self.resolved_model == "lumped":
+            # fail now, not mid-run, on values only the lumped model rejects
+            try:
+                self.to_lumped()
+            except InputError as exc:
+                raise InputError(exc.message, key=_LUMPED_KEYS.get(exc.key or "", exc.key),
+                                 expected=exc.expected) from None
+
+    def _check_partitioned(self) -> None:
+        """A partitioned coupling needs a well beyond the open hole to couple it to."""
+        c = self.coupling
+        if not self.effects.well_storage:
+            raise InputError(f"coupling = {c!r} couples the open hole to the rest of the "
+                             "well, but effects.well_storage is false",
+                             key="effects.well_storage",
+                             expected="true, or coupling = 'monolithic'")
+        g = self.geometry
+        own = math.pi * g.hole_radius**2 * g.segment_height * self.fluid.compressibility
+        given = self.completion.well_compliance
+        total = (float(given) if given is not None
+                 else well_compliance(self.completion_model()))
+        if not total > own * (1.0 + 1e-9):
+            key = ("completion.well_compliance" if given is not None
+                   else "fluid.compressibility")
+            raise InputError(
+                f"coupling = {c!r}: the well's compliance {total:.4g} m^3/Pa is not above "
+                f"the open hole's own {own:.4g} m^3/Pa (no well storage to couple)",
+                key=key, expected="a whole-well compliance above c_f pi r^2 h, or "
+                                  "coupling = 'monolithic'")
+
+    # ------------------------------------------------------------------ model choice
+    @property
+    def two_d_reasons(self) -> tuple[str, ...]:
+        """The keys that ask for the 2D model (empty: the lumped model can answer)."""
+        out = []
+        if "mesh" in self.given:
+            out.append("mesh")
+        ef = self.effects
+        for name in ("poroelastic", "heterogeneity", "strength_scaling", "shear_dilation",
+                     "fracture_plane"):
+            if getattr(ef, name):
+                out.append(f"effects.{name}")
+        if ef.interface:
+            out.append("effects.interface")
+        if self.coupling != "monolithic":
+            out.append("coupling")
+        return tuple(out)
+
+    @property
+    def resolved_model(self) -> Literal["lumped", "mdem"]:
+        """The model that will run: ``model``, or for ``"auto"`` lumped unless 2D physics
+        is asked for (:attr:`two_d_reasons`)."""
+        if self.model != "auto":
+            return self.model
+        return "mdem" if self.two_d_reasons else "lumped"
+
+    # ------------------------------------------------------------------ seeds
+    @property
+    def mesh_seed(self) -> int:
+        """Seed of the mesh jitter."""
+        return self.seed if self.mesh.seed is None else self.mesh.seed
+
+    @property
+    def rock_seed(self) -> int:
+        """Seed of the strength heterogeneity."""
+        return self.seed if self.rock.seed is None else self.rock.seed
+
+    @property
+    def noise_seed(self) -> int:
+        """Seed of the gauge noise."""
+        return self.seed if self.output.seed is None else self.output.seed
+
+    def with_seed(self, seed: int) -> Scene:
+        """A copy whose every random draw uses ``seed`` (section seeds are overridden)."""
+        return dataclasses.replace(
+            self, seed=seed, mesh=dataclasses.replace(self.mesh, seed=None),
+            rock=dataclasses.replace(self.rock, seed=None),
+            output=dataclasses.replace(self.output, seed=None))
+
+    # ------------------------------------------------------------------ lumped
+    def completion_model(self) -> Completion:
+        """The :class:`~xlotkit.sim.well.Completion` of the scene."""
+        return self.completion.completion(self.geometry, self.fluid)
+
+    def to_lumped(self) -> LumpedScene:
+        """The :class:`~xlotkit.sim.lumped.LumpedScene` of this scene (with gauge noise).
+
+        Leak-off coefficient and wall leak index come from ``[lumped]`` or, when absent,
+        from the rock (module docstring); without ``effects.well_storage`` the well
+        compliance is the open-hole segment's alone.
+        """
+        comp = self.completion_model()
+        lo, rk, st, fl = self.lumped, self.rock, self.stresses, self.fluid
+        cw = self.completion.well_compliance
+        if cw is None and not self.effects.well_storage:
+            cw = fl.compressibility * math.pi * self.geometry.hole_radius**2 * (
+                comp.open_hole_length)
+        c_l = lo.leakoff_coefficient
+        if c_l is None:
+            c_l = carter_coefficient(rk.permeability, rk.porosity, fl.compressibility,
+                                     fl.viscosity, st.sigma_h - st.pore_pressure)
+        j = lo.wall_leak_index
+        if j is None:
+            j = formulas.wall_leak_index(rk.permeability, fl.viscosity, comp.open_hole_length,
+                                self.geometry.hole_radius) if comp.open_hole_length > 0 else 0.0
+        return LumpedScene(
+            schedule=self.schedule, sigma_h=st.sigma_h, sigma_H=st.sigma_H,
+            pore_pressure=st.pore_pressure, tensile_strength=rk.tensile_strength,
+            youngs_modulus=rk.youngs_modulus, poisson_ratio=rk.poisson_ratio,
+            toughness=lo.toughness, geometry=lo.fracture_geometry,
+            fracture_height=self.geometry.segment_height,
+            initial_flaw=(self.geometry.hole_radius if lo.initial_flaw is None
+                          else lo.initial_flaw),
+            reopening=lo.reopening, nwb_coefficient=lo.nwb_coefficient,
+            leakoff_coefficient=c_l, wall_leak_index=j, completion=comp,
+            well_compliance=cw, density=fl.density, viscosity=fl.viscosity,
+            pipe_friction=self.effects.pipe_friction,
+            initial_pressure=self.completion.initial_pressure, dt=self.output.log_interval,
+            noise=self.output.noise, resolution=self.output.resolution,
+            seed=self.noise_seed, start_time=self.output.start_time,
+            max_phase_duration=self.numerics.max_phase_duration, dp_max=self.numerics.dp_max)
+
+    @classmethod
+    def from_lumped(cls, ls: LumpedScene, *, source_text: str | None = None,
+                    source_file: str | None = None) -> Scene:
+        """The scene of a :class:`~xlotkit.sim.lumped.LumpedScene` (``model = "lumped"``).
+
+        ``Scene.from_lumped(ls).to_lumped()`` simulates exactly like ``ls``.
+        """
+        comp = ls.completion_used
+        tvd = ls.tvd if ls.tvd is not None else comp.depth_tvd
+        return cls(
+            schedule=ls.schedule,
+            geometry=Geometry(hole_radius=comp.open_hole_radius,
+                              segment_height=ls.fracture_height),
+            rock=Rock(youngs_modulus=ls.youngs_modulus, poisson_ratio=ls.poisson_ratio,
+                      tensile_strength=ls.tensile_strength),
+            stresses=Stresses(sigma_H=ls.sigma_H, sigma_h=ls.sigma_h,
+                              pore_pressure=ls.pore_pressure),
+            fluid=Fluid(density=ls.density, compressibility=comp.compressibility,
+                        viscosity=ls.viscosity),
+            completion=CompletionOptions(
+                depth=comp.length_md, tvd=tvd, casing_id=comp.casing_id,
+                casing_od=comp.casing_od, pipe_od=comp.pipe_od, pipe_id=comp.pipe_id,
+                open_hole_length=comp.open_hole_length, expansion=comp.expansion,
+                steel_modulus=comp.steel_modulus, steel_poisson=comp.steel_poisson,
+                roughness=comp.roughness, well_compliance=ls.well_compliance,
+                initial_pressure=ls.initial_pressure),
+            numerics=Numerics(max_phase_duration=ls.max_phase_duration, dp_max=ls.dp_max),
+            effects=Effects(pipe_friction=ls.pipe_friction),
+            output=OutputOptions(log_interval=ls.dt, noise=ls.noise, resolution=ls.resolution,
+                                 seed=int(ls.seed), start_time=ls.start_time),
+            lumped=LumpedOptions(fracture_geometry=ls.geometry, toughness=ls.toughness,
+                                 initial_flaw=ls.initial_flaw, reopening=ls.reopening,
+                                 nwb_coefficient=ls.nwb_coefficient,
+                                 leakoff_coefficient=ls.leakoff_coefficient,
+                                 wall_leak_index=ls.wall_leak_index),
+            model="lumped", seed=int(ls.seed), source_text=source_text,
+            source_file=source_file)
+
+    # ------------------------------------------------------------------ text
+    def to_toml(self) -> str:
+        """The scene as TOML in SI (every key written; loads back to an equal scene)."""
+        lines = []
+        for key in ("title", "model", "coupling", "seed"):
+            lines.append(f"{key} = {_toml_value(getattr(self, key))}")
+        for sec, cls in _SECTION_TYPES.items():
+            if sec == "mesh" and "mesh" not in self.given:
+                continue    # a [mesh] section asks for the 2D model
+            obj = getattr(self, sec)
+            lines.append(f"\n[{sec}]")
+            for f in dataclasses.fields(obj):
+                v = getattr(obj, f.name)
+                if v is None or f.name == "interface":
+                    continue
+                lines.append(f"{f.name} = {_toml_value(v)}")
+            if sec == "effects":
+                for p in self.effects.interface:
+                    lines.append("[[effects.interface]]")
+                    lines.append(f"start = [{p.start[0]!r}, {p.start[1]!r}]")
+                    lines.append(f"end = [{p.end[0]!r}, {p.end[1]!r}]")
+                    lines.append(f"friction_angle = {float(p.friction_angle)!r}")
+        lines.append("\n[schedule]")
+        lines.append(f"cycles = {self.schedule.cycles}")
+        for ph in self.schedule.phases:
+            lines.append("[[schedule.phase]]")
+            lines.append(f'kind = "{ph.kind}"')
+            for f in dataclasses.fields(ph):
+                v = getattr(ph, f.name)
+                if v is None or (f.name == "name" and not v) or (
+                        f.name == "pressure_at" and v == "bottomhole"):
+                    continue
+                if f.name == "steps":
+                    v = "[" + ", ".join(f"[{d!r}, {r!r}]" for d, r in v) + "]"
+                    lines.append(f"steps = {v}")
+                    continue
+                lines.append(f"{f.name} = {_toml_value(v)}")
+        return "\n".join(lines) + "\n"
+
+    @property
+    def text(self) -> str:
+        """The scene file's text if it was read from one, else :meth:`to_toml`."""
+        return self.source_text if self.source_text is not None else self.to_toml()
+
+
+_LUMPED_KEYS = {  # LumpedScene field -> scene key, for errors only the lumped model raises
+    "initial_pressure": "completion.initial_pressure", "density": "fluid.density",
+    "well_compliance": "completion.well_compliance", "dt": "output.log_interval",
+    "fracture_height": "geometry.segment_height", "initial_flaw": "lumped.initial_flaw",
+    "youngs_modulus": "rock.youngs_modulus", "tensile_strength": "rock.tensile_strength",
+    "leakoff_coefficient": "lumped.leakoff_coefficient",
+    "wall_leak_index": "lumped.wall_leak_index", "tvd": "completion.tvd",
+}
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, datetime):
+        return v.isoformat()
+    return '"' + str(v).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
