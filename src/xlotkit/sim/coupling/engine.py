@@ -62,7 +62,7 @@ import json
 import math
 import time as _time
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -106,6 +106,7 @@ from xlotkit.sim.mechanics import (
 from xlotkit.sim.mechanics.breakdown import crack_geometry
 from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
 from xlotkit.sim.output import Snapshot
+from xlotkit.sim.run.contract import EngineResult, StepCounters, StepOutcome, series_rows
 from xlotkit.sim.scene import Scene
 from xlotkit.sim.well import (
     Column,
@@ -141,24 +142,9 @@ _ROW_KEYS = ("t", "bottomhole_pressure", "well_pressure", "surface_pressure",
              "failed_clusters", "mass_balance_error")
 
 
-@dataclass(frozen=True)
-class MDEMStepOutcome:
-    """What one :meth:`MDEMEngine.step` did (``ok``: the simulation advanced)."""
-
-    ok: bool
-    t: float
-    reason: str
-
-
-@dataclass(frozen=True)
-class MDEMResult:
-    """Outcome of a finished 2D run: ``status`` ("ok" or "stopped"), ``message``,
-    ``record`` (clean, on the log grid) and ``truth``."""
-
-    status: Literal["ok", "stopped"]
-    message: str
-    record: Record
-    truth: dict[str, Any]
+#: The step and result types of the 2D engine: the engine contract's (one for every engine).
+MDEMStepOutcome = StepOutcome
+MDEMResult = EngineResult
 
 
 # =========================================================================== model
@@ -469,22 +455,28 @@ class MDEMEngine:
         self._drive = self._well.idle(st.t, self._v_in, self._v_ret)
         self._targets = {}
 
-    def step(self) -> MDEMStepOutcome:
+    def _outcome(self, success: bool, t: float, reason: str) -> StepOutcome:
+        c = self.stepper.counters
+        return StepOutcome(success, t, reason, StepCounters(
+            accepted=c.steps, rejected=c.failed_steps,
+            newton_iterations=c.newton_iterations, linear_solves=c.linear_solves))
+
+    def step(self) -> StepOutcome:
         """One pass: a phase start, an accepted step (maybe ending the phase) or a rejected
         trial (retried shorter)."""
         if not self._started:
             raise RuntimeError("MDEMEngine.step() before start()")
         if self.is_done():
-            return MDEMStepOutcome(False, self.time, "done")
+            return self._outcome(False, self.time, "done")
         if not self._in_phase:
             why = self._begin_phase()
             if why:
                 self._end_phase(why)
-                return MDEMStepOutcome(True, self.time, "phase end at start: " + why)
-            return MDEMStepOutcome(True, self.time, "phase start")
+                return self._outcome(True, self.time, "phase end at start: " + why)
+            return self._outcome(True, self.time, "phase start")
         return self._trial()
 
-    def _trial(self) -> MDEMStepOutcome:
+    def _trial(self) -> StepOutcome:
         num = self.scene.numerics
         stp = self.stepper
         ctx = self._targets
@@ -515,14 +507,14 @@ class MDEMEngine:
             # a cluster failure does not shrink with the step and is not cut for
             stp.state = old
             self._h = max(h_try * 0.5 * float(num.dp_max) / abs(r.dp_w), num.dt_min)
-            return MDEMStepOutcome(False, t, "rejected: pressure change")
+            return self._outcome(False, t, "rejected: pressure change")
         why = self._reject_step(old, stp.state) if r.success and not at_floor else None
         if why:
             # a rule of a subclass (the partitioned engine's coupling rule); at the floor
             # every rule is waived, so a run cannot end on it
             stp.state = old
             self._h = max(h_try * self.tsc.cut, num.dt_min)
-            return MDEMStepOutcome(False, t, "rejected: " + why)
+            return self._outcome(False, t, "rejected: " + why)
         if not r.success:
             if at_floor:
                 raise XlotkitError(
@@ -530,7 +522,7 @@ class MDEMEngine:
                     f"numerics.dt_min = {num.dt_min:g} s and could not be stepped over: "
                     f"{r.reason}")
             self._h = max(h_try * self.tsc.cut, num.dt_min)
-            return MDEMStepOutcome(False, t, "rejected: " + r.reason)
+            return self._outcome(False, t, "rejected: " + r.reason)
         new = stp.state
         # event location: pressure ends and a flowback's volume
         vt = ph.volume_target
@@ -547,7 +539,7 @@ class MDEMEngine:
                 h_new = max(h_try * min(max(frac, 0.05), 0.95) * (1 + 1e-3), num.dt_min)
                 stp.state = old                      # undo; repeat the step shorter
                 self._retry = {"h": h_new, "tries": tries + 1}
-                return MDEMStepOutcome(False, t, f"locating {name}")
+                return self._outcome(False, t, f"locating {name}")
         self._retry = None
         # a crack that reverses the open/closed change of the last step (opened then
         # closes, or the reverse) is resolved in time: the step is repeated shorter
@@ -558,7 +550,7 @@ class MDEMEngine:
             if np.any((d1 != 0) & (d2 == -d1) & (o1 >= 0) & (new.cluster_state != 0)):
                 stp.state = old
                 self._h = max(h_try * self.tsc.cut, num.dt_min)
-                return MDEMStepOutcome(False, t, "rejected: crack reversal")
+                return self._outcome(False, t, "rejected: crack reversal")
         prev = self._open_hist[0] if self._open_hist is not None else np.full_like(is_open, -1)
         self._open_hist = (is_open, np.where((prev >= 0) & (is_open >= 0), is_open - prev, 0))
         # accepted
@@ -587,8 +579,8 @@ class MDEMEngine:
             reason = "limit"
         if reason:
             self._end_phase(reason)
-            return MDEMStepOutcome(True, new.t, "phase end: " + reason)
-        return MDEMStepOutcome(True, new.t, "accepted")
+            return self._outcome(True, new.t, "phase end: " + reason)
+        return self._outcome(True, new.t, "accepted")
 
     def _reject_step(self, old: CoupledState, new: CoupledState) -> str | None:
         """A further rule on an accepted trial from ``old`` to ``new`` (above the floor):
@@ -644,7 +636,7 @@ class MDEMEngine:
     def rows(self) -> dict[str, np.ndarray]:
         """The time series so far, one row per accepted step (SI; see
         :data:`xlotkit.sim.output.SERIES_COLUMNS`)."""
-        return {k: np.asarray(v, dtype=float) for k, v in self._rows.items()}
+        return series_rows(self._rows)
 
     # ------------------------------------------------------------------ fields
     def snapshot(self) -> Snapshot:
@@ -747,7 +739,7 @@ class MDEMEngine:
         self._wall_before = float(scal["wall_time"])
 
     # ------------------------------------------------------------------ result
-    def result(self) -> MDEMResult:
+    def result(self) -> EngineResult:
         """The outcome once :meth:`is_done`: record on the log grid and truth."""
         if not self.is_done():
             raise RuntimeError("MDEMEngine.result() before the run is done")
@@ -783,7 +775,7 @@ class MDEMEngine:
         realised = self._realised()
         if realised:
             truth["realised"] = realised
-        return MDEMResult(status=self.status, message=msg, record=record, truth=truth)
+        return EngineResult(status=self.status, message=msg, record=record, truth=truth)
 
     def _realised(self) -> dict[str, float]:
         """What the model realised, where it differs from the scene's input.

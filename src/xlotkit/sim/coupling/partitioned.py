@@ -68,7 +68,7 @@ from typing import Any
 import numpy as np
 
 from xlotkit.errors import InputError, XlotkitError
-from xlotkit.sim.coupling.engine import MDEMEngine, MDEMResult
+from xlotkit.sim.coupling.engine import MDEMEngine
 from xlotkit.sim.coupling.model import CoupledState
 from xlotkit.sim.coupling.segment import (
     CoupledSegment,
@@ -77,6 +77,7 @@ from xlotkit.sim.coupling.segment import (
     fluid_storage,
 )
 from xlotkit.sim.coupling.stepper import CoupledCounters, CoupledStepper, StepResult
+from xlotkit.sim.run.contract import EngineResult, series_rows
 from xlotkit.sim.scene import PARTITIONED_COUPLINGS, Scene
 from xlotkit.sim.well import PhaseDrive
 from xlotkit.sim.wellcoupling import (
@@ -563,9 +564,7 @@ class PartitionedMDEMEngine(MDEMEngine):
     def rows(self) -> dict[str, np.ndarray]:
         """The engine's rows plus ``segment_pressure`` (``bottomhole_pressure`` and
         ``well_pressure`` are the well's BHP)."""
-        out = super().rows()
-        out["segment_pressure"] = np.asarray(self._seg_rows, dtype=float)
-        return out
+        return series_rows({**super().rows(), "segment_pressure": self._seg_rows})
 
     def state(self) -> dict[str, Any]:
         """The engine's checkpoint plus the well side and the coupling's memory."""
@@ -606,7 +605,7 @@ class PartitionedMDEMEngine(MDEMEngine):
         stp.coupling = CouplingCounters(**w["coupling"])
         self._seg_rows = seg_rows
 
-    def result(self) -> MDEMResult:
+    def result(self) -> EngineResult:
         """The engine's result; the record gets a ``segment_pressure`` channel and the
         truth the coupling's statistics (``coupling``: strategy, options, counters,
         ``mismatch_max``/``mismatch_rms`` of ``p_w - p_s`` over the rows [Pa] and

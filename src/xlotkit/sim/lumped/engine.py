@@ -7,44 +7,25 @@ import json
 import math
 import time as _time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import numpy as np
 
 from xlotkit.errors import InputError
 from xlotkit.record import Event, PressureReference, Record
-from xlotkit.sim.lumped.solver import State, StepSolver, _event_value, locate, _view
+from xlotkit.sim.lumped.solver import State, StepSolver, _event_value, _view, locate
+from xlotkit.sim.run.contract import EngineResult, StepCounters, StepOutcome, series_rows
 from xlotkit.sim.scene.lumped import LumpedScene
 from xlotkit.sim.well import WellDrive, phase_place
 
 __all__ = ["LumpedEngine", "LumpedResult", "StepOutcome", "simulate_lumped"]
 
-
-@dataclass(frozen=True)
-class LumpedResult:
-    """Outcome of :func:`simulate_lumped`.
-
-    Attributes
-    ----------
-    status : {"ok", "stopped"}
-        ``stopped`` when a phase hit ``max_phase_duration`` without meeting its end condition.
-    message : str
-        Human-readable summary.
-    record : Record
-        The synthetic log: bottom-hole gauge pressure and rates on the output grid.
-    truth : dict
-        What the model imposed and realised (see :func:`simulate_lumped`).
-    """
-
-    status: Literal["ok", "stopped"]
-    message: str
-    record: Record
-    truth: dict[str, Any] = field(default_factory=dict)
+#: What a finished lumped run returns: the one result type of every engine.
+LumpedResult = EngineResult
 
 
 def simulate_lumped(scene: LumpedScene, *,
-                    progress: Callable[[float], None] | None = None) -> LumpedResult:
+                    progress: Callable[[float], None] | None = None) -> EngineResult:
     """Run the lumped XLOT model (equations in the module docstring).
 
     A thin wrapper around :class:`LumpedEngine`: start it, step it to the end, return its
@@ -106,26 +87,6 @@ def simulate_lumped(scene: LumpedScene, *,
 
 #: The scalar fields of the solver state saved in a checkpoint.
 _STATE_FIELDS = tuple(f.name for f in dataclasses.fields(State))
-
-
-@dataclass(frozen=True)
-class StepOutcome:
-    """What one call of an engine's ``step()`` did.
-
-    Attributes
-    ----------
-    ok : bool
-        True when the step advanced the simulation (an accepted step, a phase change);
-        False when it was rejected and will be retried shorter (nothing advanced).
-    t : float
-        Simulated time after the call [s].
-    reason : str
-        Why the step was rejected, or what it did (``"accepted"``, ``"phase end: volume"``).
-    """
-
-    ok: bool
-    t: float
-    reason: str
 
 
 class LumpedEngine:
@@ -215,21 +176,28 @@ class LumpedEngine:
         if not self._started:
             raise RuntimeError("LumpedEngine.step() before start()")
         if self.is_done():
-            return StepOutcome(False, self.s.t, "done")
+            return self._outcome(False, "done")
         if not self._in_phase:
             self._begin_phase()
             if self._reason:
+                reason = self._reason
                 self._end_phase()
-                return StepOutcome(True, self.s.t, "phase end at start: " + self._reason)
-            return StepOutcome(True, self.s.t, "phase start")
+                return self._outcome(True, "phase end at start: " + reason)
+            return self._outcome(True, "phase start")
         accepted = self._iterate()
         if not accepted:
-            return StepOutcome(False, self.s.t, "rejected: pressure change above dp_max")
+            return self._outcome(False, "rejected: pressure change above dp_max")
         if self._reason:
             reason = self._reason
             self._end_phase()
-            return StepOutcome(True, self.s.t, "phase end: " + reason)
-        return StepOutcome(True, self.s.t, "accepted")
+            return self._outcome(True, "phase end: " + reason)
+        return self._outcome(True, "accepted")
+
+    def _outcome(self, success: bool, reason: str) -> StepOutcome:
+        sim = self.sim
+        return StepOutcome(success, self.s.t, reason,
+                           StepCounters(accepted=sim.n_steps, rejected=sim.n_rejected,
+                                        events=sim.n_events))
 
     def rows(self) -> dict[str, np.ndarray]:
         """The time series so far, one row per accepted internal state (SI).
@@ -243,13 +211,13 @@ class LumpedEngine:
         """
         h = {k: np.asarray(v, dtype=float) for k, v in self.sim.hist.items()}
         mb = np.concatenate([[math.nan], np.asarray(self.sim.mb_err, dtype=float)])
-        return {
+        return series_rows({
             "t": h["t"], "bottomhole_pressure": h["p"], "fracture_pressure": h["pf"],
             "surface_pressure": h["ps"], "pump_rate": h["q_in"], "return_rate": h["q_ret"],
             "pumped_volume": h["v_in"], "returned_volume": h["v_ret"],
             "leakoff_volume": h["v_carter"] + h["v_wall"], "fracture_length": h["L"],
             "fracture_volume": h["vf"], "mass_balance_error": mb,
-        }
+        })
 
     def state(self) -> dict[str, Any]:
         """Everything the remaining steps depend on: NumPy arrays and scalars.
@@ -507,7 +475,7 @@ class LumpedEngine:
         return True
 
     # ------------------------------------------------------------------ result
-    def result(self) -> LumpedResult:
+    def result(self) -> EngineResult:
         """The outcome once :meth:`is_done` (record on the output grid, truth)."""
         if not self.is_done():
             raise RuntimeError("LumpedEngine.result() before the run is done")
@@ -550,7 +518,7 @@ class LumpedEngine:
             "n_steps": sim.n_steps, "n_rejected": sim.n_rejected, "n_events": sim.n_events,
             "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
         }
-        return LumpedResult(status=status, message=msg, record=record, truth=truth)
+        return EngineResult(status=status, message=msg, record=record, truth=truth)
 
 
 def _make_record(sc: LumpedScene, sim: StepSolver, hist: dict[str, np.ndarray],

@@ -1,82 +1,23 @@
-"""Run a scene: the stepwise-engine protocol, the engine registry and the driver.
-
-Engine protocol
----------------
-A simulator is driven one step at a time through :class:`Engine`:
-
-``start()``
-    Set up the state at t = 0. Called once for a fresh run (instead of ``restore``).
-``step() -> outcome``
-    Advance by one step; ``outcome.ok`` (bool) says whether the simulation advanced
-    (False: a rejected trial that will be retried, nothing changed), ``outcome.t`` the
-    simulated time after the call, ``outcome.reason`` a short text (why it was rejected,
-    or what happened). An engine raises :class:`~xlotkit.errors.XlotkitError` for a
-    failure it cannot step past.
-``is_done() -> bool``
-    True once the whole schedule has run (``step`` is then not called again).
-``progress() -> float``
-    Fraction done in [0, 1], non-decreasing over the run.
-``time`` (property) -> float
-    Simulated time [s].
-``state() -> dict[str, ndarray | int | float | bool | str]``
-    Everything the remaining steps depend on, as NumPy arrays and scalars (strings allowed,
-    e.g. JSON for small structured data). Must be exact: ``restore(state())`` followed
-    by the remaining steps gives bit-identical results.
-``restore(state)``
-    Continue from a ``state()`` dict (values may come back as 0-d arrays).
-``rows() -> dict[str, ndarray]``
-    The time series produced so far, one row per accepted step; column names from
-    :data:`xlotkit.sim.output.SERIES_COLUMNS` (``t`` required; columns the engine does not
-    have are left out, never filled with zeros).
-``snapshot() -> Snapshot | None``
-    Fields on the mesh now (:class:`xlotkit.sim.output.Snapshot`), or None for an engine
-    without a mesh.
-``result()``
-    Once done: an object with ``status`` ("ok" or "stopped"), ``message``, ``record`` (the
-    clean :class:`~xlotkit.record.Record` sampled every ``scene.output.log_interval``:
-    bottom-hole ``pressure``, rates, volumes, ``density``, channel ``surface_pressure``)
-    and ``truth`` (a dict; it may carry ``"realised": {"sigma_h": ..., "sigma_H": ...,
-    "tensile_strength": ...}`` when the realised values differ from the imposed ones,
-    e.g. with heterogeneity).
-
-Engines are made by factories ``factory(scene) -> Engine`` registered per model name in
-:data:`ENGINES` (:func:`register_engine`). ``lumped`` is built in
-(:class:`xlotkit.sim.lumped.LumpedEngine`), and so is ``mdem``
-(:class:`xlotkit.sim.coupling.engine.MDEMEngine`, the 2D coupled model; a scene with
-``coupling = "wfd" | "wfc" | "wfdmod"`` gets
-:class:`xlotkit.sim.coupling.partitioned.PartitionedMDEMEngine`). A model without a
-registered engine raises :class:`EngineNotAvailable`.
-
-Driver
-------
-:func:`simulate` writes into a fresh results folder, checkpoints every
-``numerics.checkpoint_steps`` steps or ``numerics.checkpoint_seconds`` of wall time
-(atomically, ``checkpoint.npz``), and at the end writes ``timeseries.h5``,
-``synthetic_log.csv`` (noise, resolution and sample interval from ``[output]``),
-``summary.json`` and, for engines with a mesh, ``snapshots/*.vtu`` with ``fields.pvd``;
-the checkpoint is then removed. ``simulate(..., resume=True)`` continues an interrupted
-run from its last checkpoint and ends with the same numbers as an uninterrupted run.
-"""
+"""The driver: run a scene to the end with checkpoints, write its outputs (:func:`simulate`)."""
 
 from __future__ import annotations
 
 import hashlib
 import json
 import time as _time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 
 from xlotkit import __version__
 from xlotkit.atomic import atomic_write, atomic_write_text, fresh_output_dir
-from xlotkit.errors import InputError, XlotkitError
+from xlotkit.errors import InputError
 from xlotkit.record import Record
 from xlotkit.sim.output import (
     TRUTH_QUANTITIES,
-    Snapshot,
     check_rows,
     surface_gauge_record,
     synthetic_log,
@@ -84,57 +25,14 @@ from xlotkit.sim.output import (
     write_snapshot,
     write_timeseries,
 )
+from xlotkit.sim.run.contract import Engine, EngineResult
+from xlotkit.sim.run.engines import make_engine
 from xlotkit.sim.scene import Scene
 
-__all__ = [
-    "ENGINES",
-    "Engine",
-    "EngineNotAvailable",
-    "SimulationInterrupted",
-    "SimulationResult",
-    "make_engine",
-    "register_engine",
-    "require_engine",
-    "simulate",
-]
+__all__ = ["CHECKPOINT", "SimulationInterrupted", "SimulationResult", "simulate"]
 
 CHECKPOINT = "checkpoint.npz"
 _CHECKPOINT_FORMAT = 1
-
-
-@runtime_checkable
-class Engine(Protocol):
-    """A stepwise simulator (see the module docstring for the contract)."""
-
-    model: str
-
-    def start(self) -> None: ...
-
-    def step(self) -> Any: ...
-
-    def is_done(self) -> bool: ...
-
-    def progress(self) -> float: ...
-
-    @property
-    def time(self) -> float: ...
-
-    def state(self) -> dict[str, Any]: ...
-
-    def restore(self, state: Mapping[str, Any]) -> None: ...
-
-    def rows(self) -> dict[str, np.ndarray]: ...
-
-    def snapshot(self) -> Snapshot | None: ...
-
-    def result(self) -> Any: ...
-
-
-EngineFactory = Callable[[Scene], Engine]
-
-
-class EngineNotAvailable(XlotkitError):
-    """No engine is registered for the model a scene needs."""
 
 
 class SimulationInterrupted(KeyboardInterrupt):
@@ -153,62 +51,6 @@ class SimulationInterrupted(KeyboardInterrupt):
         super().__init__(f"simulation in {out_dir} interrupted")
         self.out_dir = out_dir
         self.has_checkpoint = has_checkpoint
-
-
-def _lumped_factory(scene: Scene) -> Engine:
-    from xlotkit.sim.lumped import LumpedEngine
-
-    # The engine's record stays clean: the driver puts the gauge noise on the log.
-    return LumpedEngine(scene.to_lumped().replace(noise=0.0, resolution=0.0))
-
-
-def _mdem_factory(scene: Scene) -> Engine:
-    # the well coupling is chosen per scene: the well as storage on p_w (MDEMEngine), or
-    # the thesis's partitioned schemes around the same engine
-    if scene.coupling != "monolithic":
-        from xlotkit.sim.coupling.partitioned import PartitionedMDEMEngine
-
-        return PartitionedMDEMEngine(scene)
-    from xlotkit.sim.coupling.engine import MDEMEngine
-
-    return MDEMEngine(scene)
-
-
-#: model name -> engine factory.
-ENGINES: dict[str, EngineFactory] = {"lumped": _lumped_factory, "mdem": _mdem_factory}
-
-
-def register_engine(model: str, factory: EngineFactory) -> None:
-    """Register (or replace) the engine factory for ``model`` (``"lumped"``, ``"mdem"``)."""
-    if model not in ("lumped", "mdem"):
-        raise InputError(f"unknown model {model!r}", key="model", expected="lumped or mdem")
-    ENGINES[model] = factory
-
-
-def require_engine(scene: Scene) -> EngineFactory:
-    """The registered factory for the scene's resolved model.
-
-    Raises
-    ------
-    EngineNotAvailable
-        When no engine is registered for it (today: ``mdem``).
-    """
-    model = scene.resolved_model
-    factory = ENGINES.get(model)
-    if factory is None:
-        why = ", ".join(scene.two_d_reasons) or "model = 'mdem'"
-        where = f"{scene.source_file}: " if scene.source_file else ""
-        raise EngineNotAvailable(
-            f"{where}model: the scene needs the 2D MDEM simulator ({why}), which is not "
-            f"available yet (no engine registered for {model!r}); use model = 'lumped' "
-            f"without those keys, or register one with "
-            f"xlotkit.sim.run.register_engine({model!r}, factory)")
-    return factory
-
-
-def make_engine(scene: Scene) -> Engine:
-    """A new engine for the scene's resolved model (see :func:`require_engine`)."""
-    return require_engine(scene)(scene)
 
 
 @dataclass(frozen=True)
@@ -392,7 +234,7 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
                    _time.perf_counter() - wall0)
 
 
-def _finish(scene: Scene, engine: Engine, res: Any, driver: dict[str, Any], target: Path,
+def _finish(scene: Scene, engine: Engine, res: EngineResult, driver: dict[str, Any], target: Path,
             paths: dict[str, Path], resumed: bool, wall: float) -> SimulationResult:
     from xlotkit.logfile import write_log
 
