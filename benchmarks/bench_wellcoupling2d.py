@@ -90,7 +90,7 @@ def run_one(name: str) -> dict:
     """Run one configuration and summarise it (plain JSON types)."""
     from xlotkit.sim.run import make_engine
 
-    from xlotkit.sim.wellcoupling import WellLoad
+    from xlotkit.sim.coupling.schemes import WellLoad
 
     coupling, wc, num = RUNS[name]
     sc = bench_scene(coupling, wc, num)

@@ -36,7 +36,7 @@ from xlotkit.sim.coupling.segment import CoupledSegment, fluid_storage
 from xlotkit.sim.output import read_timeseries
 from xlotkit.sim.run import make_engine, simulate
 from xlotkit.sim.scene import scene_from_dict
-from xlotkit.sim.wellcoupling import (
+from xlotkit.sim.coupling.schemes import (
     ControllerMemory,
     CouplingOptions,
     SegmentModel,

@@ -5,7 +5,7 @@ A scene with ``coupling = "wfd"``, ``"wfc"`` or ``"wfdmod"`` runs here
 the open-hole segment (:class:`~xlotkit.sim.coupling.segment.CoupledSegment`: the borehole
 with only its own storage), the rest of the well is a separate storage with its own
 pressure, and each step the two are coupled by one of the schemes of
-:mod:`xlotkit.sim.wellcoupling` (WFD iterative BHP matching, Eq. 4.8–4.18; WFC gain
+:mod:`xlotkit.sim.coupling.schemes` (WFD iterative BHP matching, Eq. 4.8–4.18; WFC gain
 controller, Eq. 4.19–4.22; WFDmod, Eq. 4.23 after pumping), exactly as on the lumped unit
 segment. ``monolithic`` stays :class:`~xlotkit.sim.coupling.engine.MDEMEngine`.
 
@@ -34,7 +34,7 @@ under a withdrawal, a closed crack pressed by a rate set for an open one) the ra
 past the well and on, tens of MPa in a step, and the next steps' Newton solves start from
 pressures far off (and under the pore pressure). A shorter step sends proportionally less
 (the WFC gain of a shortened step is spread over the planned one,
-:func:`xlotkit.sim.wellcoupling._step_wfc`), so repeating it shorter resolves the change as
+:func:`xlotkit.sim.coupling.schemes._step_wfc`), so repeating it shorter resolves the change as
 the engine resolves a crack's opening or closing. WFD, which matches the pressures to its
 tolerance, meets the rule only where it could not converge.
 
@@ -80,11 +80,11 @@ from xlotkit.sim.coupling.stepper import CoupledCounters, CoupledStepper, StepRe
 from xlotkit.sim.run.contract import EngineResult, series_rows
 from xlotkit.sim.scene import PARTITIONED_COUPLINGS, Scene
 from xlotkit.sim.well import PhaseDrive
-from xlotkit.sim.wellcoupling import (
+from xlotkit.sim.coupling.schemes import (
     ControllerMemory,
     CouplingOptions,
     SegmentStepFailed,
-    _solve_increasing,
+    solve_increasing,
     well_coupled_step,
 )
 
@@ -192,7 +192,7 @@ class CouplingCounters:
 # =========================================================================== well side
 class WellSide2D:
     """The well without the open hole, per unit height of the 2D slab (SI; see the
-    module docstring). Implements :class:`xlotkit.sim.wellcoupling.WellSide`.
+    module docstring). Implements :class:`xlotkit.sim.coupling.schemes.WellSide`.
 
     Parameters
     ----------
@@ -255,7 +255,7 @@ class WellSide2D:
                                    "than its fluid mass")
             return p_w + math.log1p(y) / cf
         slope = a * math.exp(cf * (min(p_w, p_extra if cx else p_w) - pr))
-        return _solve_increasing(
+        return solve_increasing(
             lambda p: self.store(self.c_w, p, p_w) + self.store(cx, p, p_extra)
             + dt * out(p) - rhs, p_w, slope)
 

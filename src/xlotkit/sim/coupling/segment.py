@@ -1,6 +1,6 @@
 r"""The 2D coupled model as the open-hole segment of the well coupling (SPEC §5).
 
-:class:`CoupledSegment` implements :class:`xlotkit.sim.wellcoupling.SegmentModel` for a
+:class:`CoupledSegment` implements :class:`xlotkit.sim.coupling.schemes.SegmentModel` for a
 :class:`~xlotkit.sim.coupling.CoupledModel`: the borehole of the 2D section with only its own
 storage, stepped by the coupled stepper (Newton on ``(u, p, p_w)``, failure rounds, optional
 continuation in the step length) under one of three borehole conditions:
@@ -38,7 +38,7 @@ failed clusters opened since they failed (:func:`~xlotkit.sim.coupling.fracture_
 engine's ``leakoff_volume``.
 
 A step that the coupled stepper rejects (Newton, more than ``max_new_failures`` new failed
-clusters, mass balance) raises :class:`~xlotkit.sim.wellcoupling.SegmentStepFailed`; the
+clusters, mass balance) raises :class:`~xlotkit.sim.coupling.schemes.SegmentStepFailed`; the
 model and the given state are unchanged, so the caller may retry with a shorter step.
 """
 
@@ -63,7 +63,7 @@ from xlotkit.sim.coupling.stepper import (
     _equilibrated_solve,
 )
 from xlotkit.sim.mechanics import INTACT
-from xlotkit.sim.wellcoupling import SegmentStep, SegmentStepFailed, WellLoad
+from xlotkit.sim.coupling.schemes import SegmentStep, SegmentStepFailed, WellLoad
 
 __all__ = ["CoupledSegment", "CoupledSegmentState", "CoupledSegmentStep", "fluid_storage"]
 
@@ -142,7 +142,7 @@ class CoupledSegmentState:
 
 @dataclass(frozen=True, eq=False)
 class CoupledSegmentStep(SegmentStep):
-    """:class:`~xlotkit.sim.wellcoupling.SegmentStep` of the 2D segment, with the coupled
+    """:class:`~xlotkit.sim.coupling.schemes.SegmentStep` of the 2D segment, with the coupled
     stepper's record of the step.
 
     Attributes
@@ -163,7 +163,7 @@ class CoupledSegmentStep(SegmentStep):
 
 
 class CoupledSegment:
-    """The 2D open-hole segment behind the :class:`~xlotkit.sim.wellcoupling.SegmentModel`
+    """The 2D open-hole segment behind the :class:`~xlotkit.sim.coupling.schemes.SegmentModel`
     protocol (see the module docstring for the scaling).
 
     Parameters

@@ -53,7 +53,7 @@ class CouplingOptions:
         mismatch; ``c_eff`` the series compliance of well and segment), i.e. ``G`` times the
         volume that would equalise the two pressures, spread over one step (with adaptive
         steps, over the step the carried rate was set for when the present one is shorter:
-        :func:`_step_wfc`).
+        :func:`xlotkit.sim.coupling.schemes._step_wfc`).
     wfc_damping : float
         WFC damping ``gamma`` (Eq. 4.22; thesis example 0.05).
     wfdmod_gain, wfdmod_damping : float
@@ -357,7 +357,7 @@ class LumpedOptions:
 @dataclass(frozen=True, kw_only=True)
 class WellCouplingOptions:
     """``[well_coupling]``: tolerances, gains and damping of the partitioned couplings
-    (``coupling = "wfd" | "wfc" | "wfdmod"``; :class:`xlotkit.sim.wellcoupling.
+    (``coupling = "wfd" | "wfc" | "wfdmod"``; :class:`xlotkit.sim.scene.
     CouplingOptions`, docs/well-coupling.md). Ignored by ``monolithic``."""
 
     section: ClassVar[str] = "well_coupling"
@@ -374,7 +374,7 @@ class WellCouplingOptions:
         _validate(self, self.section)
 
     def options(self) -> CouplingOptions:
-        """The :class:`~xlotkit.sim.wellcoupling.CouplingOptions` of this section."""
+        """The :class:`CouplingOptions` of this section."""
         return CouplingOptions(
             wfd_tolerance=self.tolerance, wfd_rate_tolerance=self.rate_tolerance,
             wfd_max_iterations=self.max_iterations, wfd_calibration=self.calibration,
