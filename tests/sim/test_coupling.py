@@ -519,6 +519,7 @@ def test_branch_violation_measures_the_miss_of_each_held_branch(hole_mesh):
     shear displacement past the friction limit (stick) or short of it (slip)."""
     from types import SimpleNamespace
 
+    from xlotkit.sim.coupling.newton import branch_violation
     from xlotkit.sim.mechanics import OPEN, SLIP, STICK
 
     model = _model(hole_mesh)
@@ -536,17 +537,17 @@ def test_branch_violation_measures_the_miss_of_each_held_branch(hole_mesh):
     Us = 1.1 * cap_disp
     res = SimpleNamespace(response=(None, None, None, Un, Us))
     held = np.full((nc, 3), OPEN)
-    v = stp._branch_violation(res, st, held, zero)
+    v = branch_violation(stp.model, res, st, held, zero)
     assert np.allclose(v, 1e-6, rtol=1e-12)                 # overlap of an open contact
-    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    v = branch_violation(stp.model, res, st, np.full((nc, 3), STICK), zero)
     assert np.allclose(v, 0.1 * cap_disp, rtol=1e-9)         # past the limit in stick
-    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), np.ones((nc, 3)))
+    v = branch_violation(stp.model, res, st, np.full((nc, 3), SLIP), np.ones((nc, 3)))
     assert np.all(v == 0.0)                                  # slipping in its sign: exact
-    v = stp._branch_violation(res, st, np.full((nc, 3), SLIP), -np.ones((nc, 3)))
+    v = branch_violation(stp.model, res, st, np.full((nc, 3), SLIP), -np.ones((nc, 3)))
     assert np.allclose(v, 2.1 * cap_disp, rtol=1e-9)         # wrong sign: the whole way back
     # an opening of 2 um is the violation of a contact held closed
     res = SimpleNamespace(response=(None, None, None, np.full((nc, 3), 2e-6), zero))
-    v = stp._branch_violation(res, st, np.full((nc, 3), STICK), zero)
+    v = branch_violation(stp.model, res, st, np.full((nc, 3), STICK), zero)
     assert np.allclose(v, 2e-6, rtol=1e-12)
     with pytest.raises(InputError, match="contact_gap_rtol"):
         CoupledControl(contact_gap_rtol=-1.0)

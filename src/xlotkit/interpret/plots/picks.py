@@ -138,17 +138,6 @@ def _draw_lines(ax, details: Mapping[str, Any], x_plot_range, *, xscale=1.0, ysc
                 label=f"{name}" if name != "line" else "fitted line")
 
 
-def _pick_hline(ax, pk: Pick | None, label: str, color: str) -> None:
-    if pk is None or not pk.found:
-        return
-    ax.axhline(pk.value / _BAR, color=color, lw=0.8, ls=":")
-    if pk.low is not None and pk.high is not None:
-        ax.axhspan(pk.low / _BAR, pk.high / _BAR, color=color, alpha=0.12, lw=0)
-    ax.annotate(f"{label} {pk.value / _BAR:.1f} bar", xy=(0.01, pk.value / _BAR),
-                xycoords=("axes fraction", "data"), fontsize=8, color=color,
-                va="bottom")
-
-
 def _extended_line(line: Mapping[str, Any], pad: float = 0.3, n: int = 30
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Points of a fitted line ``y = slope x + intercept`` over its fit range widened by

@@ -55,15 +55,15 @@ import numpy as np
 from xlotkit.errors import InputError
 from xlotkit.sim.coupling.geometry import fracture_summary
 from xlotkit.sim.coupling.model import CoupledModel, CoupledState
+from xlotkit.sim.coupling.newton import equilibrated_solve
+from xlotkit.sim.coupling.schemes import SegmentStep, SegmentStepFailed, WellLoad
 from xlotkit.sim.coupling.stepper import (
     CoupledControl,
     CoupledCounters,
     CoupledStepper,
     StepResult,
-    _equilibrated_solve,
 )
 from xlotkit.sim.mechanics import INTACT
-from xlotkit.sim.coupling.schemes import SegmentStep, SegmentStepFailed, WellLoad
 
 __all__ = ["CoupledSegment", "CoupledSegmentState", "CoupledSegmentStep", "fluid_storage"]
 
@@ -347,7 +347,7 @@ class CoupledSegment:
                                               structure=model.structure_of(new))
             rhs = np.zeros(res.residual.size)
             rhs[-1] = self.rho0                  # dR_w/dQ = -rho0: J dx/dQ = rho0 e_w
-            dpdq = float(_equilibrated_solve(res.jacobian, rhs)[-1])
+            dpdq = float(equilibrated_solve(res.jacobian, rhs)[-1])
         finally:
             model.well_storage, model.well_rate, flow.well = saved
         self.tangent_solves += 1

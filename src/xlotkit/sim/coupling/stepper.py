@@ -19,17 +19,15 @@ See docs/coupling.md, "Breakdown into a large well storage".
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from xlotkit.errors import InputError
 from xlotkit.sim.coupling.model import CoupledModel, CoupledResidual, CoupledState, Structure
-from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT, OPEN, SLIP, STICK
+from xlotkit.sim.coupling.newton import newton
+from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT
 
 __all__ = [
     "CoupledControl",
@@ -110,7 +108,7 @@ class CoupledControl:
         Gap tolerance of the contact law, as a fraction of the model's residual aperture
         ``w_res``: a solve converged with contacts held on branches of their law is
         accepted when every contact on a wrong branch misses the exact law's switch point
-        by at most ``contact_gap_rtol * w_res`` (:meth:`CoupledStepper._branch_violation`:
+        by at most ``contact_gap_rtol * w_res`` (:func:`~xlotkit.sim.coupling.newton.branch_violation`:
         overlap of a contact held open, opening of one held closed, shear displacement
         past or short of the friction limit). A contact whose exact solution lies at the
         corner of its law (zero force and zero gap) can have no solution on either
@@ -386,41 +384,6 @@ class CoupledRunResult:
         return self.status != "failed"
 
 
-def _equilibrated_solve(J: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``J x = rhs`` with row then column scaling by the largest entries."""
-    A = J.tocsc(copy=True)
-    A.sum_duplicates()
-    n = A.shape[0]
-    # scalings on the CSC arrays directly (the sparse-matrix products they replace cost
-    # as much as the factorisation on a few-thousand-unknown model)
-    ad = np.abs(A.data)
-    rmax = np.zeros(n)
-    np.maximum.at(rmax, A.indices, ad)
-    r = np.where(rmax > 0, 1.0 / np.where(rmax > 0, rmax, 1.0), 1.0)
-    A.data *= r[A.indices]
-    col = np.repeat(np.arange(n), np.diff(A.indptr))
-    cmax = np.zeros(n)
-    np.maximum.at(cmax, col, np.abs(A.data))
-    c = np.where(cmax > 0, 1.0 / np.where(cmax > 0, cmax, 1.0), 1.0)
-    A.data *= c[col]
-    b = r * rhs
-    # the coupled matrix is structurally symmetric (K, G / dV_du, the flow graph): a
-    # minimum-degree ordering of A + A^T with pivots preferred on the diagonal fills about
-    # half as much as the default column ordering and factors twice as fast (measured on a
-    # 3085-unknown cracked model: 15 vs 29 ms); the default is the fallback when the
-    # diagonal pivots are poor
-    try:
-        y = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                      options={"SymmetricMode": True}).solve(b)
-        ok = np.all(np.isfinite(y)) and (np.linalg.norm(A @ y - b)
-                                         <= 1e-10 * max(np.linalg.norm(b), 1e-300))
-    except RuntimeError:
-        ok = False
-    if not ok:
-        y = spla.splu(A).solve(b)
-    return c * y
-
-
 class CoupledStepper:
     """Implicit (backward-Euler) monolithic steps of a :class:`CoupledModel`.
 
@@ -450,287 +413,6 @@ class CoupledStepper:
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
         self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
-
-    # ---------------------------------------------------------------- Newton
-    def _scaled(self, res: CoupledResidual) -> tuple[float, float, float]:
-        nu = self.model.n_u
-        R = res.residual
-        ru = float(np.max(np.abs(R[:nu]), initial=0.0)) / res.force_scale
-        rf = float(np.sum(np.abs(R[nu:])))
-        return ru, rf, float(np.linalg.norm(R[:nu]) / res.force_scale) ** 2 + (
-            rf / max(res.mass_scale, 1e-300)) ** 2
-
-    def _floor(self, res: CoupledResidual, x: np.ndarray) -> float:
-        """Round-off floor of ``sum |R_f|`` at the iterate ``x`` [kg/s]."""
-        nu = self.model.n_u
-        Jf = abs(res.jacobian[nu:])
-        return 4.0 * np.finfo(float).eps * float(np.sum(Jf @ np.abs(x)))
-
-    def _forces_ok(self, res: CoupledResidual, x: np.ndarray, ru: float) -> bool:
-        """Force rows converged: ``max |R_u| <= force_rtol * force_scale``, or each row
-        at its round-off floor ``4 eps sum_j |dR_u,i/dx_j| |x_j|``.
-
-        The residual is incremental (``u - u_0``, ``p - p_0``) and the force scale is the
-        size of the increments' forces; when almost nothing moves (a shut-in of intact rock)
-        that scale shrinks to the rounding of ``x - x_0`` itself and the relative test
-        cannot be met.
-        """
-        ctl = self.control
-        if ru <= ctl.force_rtol:
-            return True
-        if ru > 1e-6:
-            return False
-        nu = self.model.n_u
-        Ru = np.abs(res.residual[:nu])
-        floor = 4.0 * np.finfo(float).eps * (abs(res.jacobian[:nu]) @ np.abs(x))
-        return bool(np.all(Ru <= np.maximum(ctl.force_rtol * res.force_scale, floor)))
-
-    def _law_status(self, res: CoupledResidual, st: Structure):
-        """Status (open/stick/slip) and shear sign of every contact under the exact law at
-        the iterate of ``res``."""
-        mech = self.model.mechanics
-        Un, Us = res.response[3], res.response[4]
-        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
-        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
-        cap = mech.mu * np.maximum(-trial_n, 0.0)
-        law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
-        return law, np.sign(trial_s)
-
-    def _branch_violation(self, res: CoupledResidual, st: Structure, fstat: np.ndarray,
-                          fsgn: np.ndarray) -> np.ndarray:
-        """How far [m] each contact's iterate lies beyond the switch point of the exact law
-        when held on branch ``fstat`` (sign ``fsgn``): the overlap of a contact held open,
-        the opening of one held closed, the shear displacement past the friction limit of
-        one held in stick, or short of it (in its sign) of one held slipping; 0 where the
-        held branch is the exact law's."""
-        mech = self.model.mechanics
-        Un, Us = res.response[3], res.response[4]
-        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
-        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
-        cap = mech.mu * np.maximum(-trial_n, 0.0)
-        v_open = np.maximum(-trial_n, 0.0) / mech.kn
-        v_closed = np.maximum(trial_n, 0.0) / mech.kn
-        v_stick = np.maximum(np.abs(trial_s) - cap, 0.0) / mech.ks
-        v_slip = np.maximum(cap - fsgn * trial_s, 0.0) / mech.ks
-        return np.where(fstat == OPEN, v_open,
-                        np.maximum(v_closed, np.where(fstat == SLIP, v_slip, v_stick)))
-
-    def _newton(self, x, old, dt, undrained, st, max_it=None):
-        """Semi-smooth Newton on the coupled residual for fixed cluster states.
-
-        Chattering contacts are held on a branch of their law (``CoupledControl.chatter``)
-        and the branches settled by an active-set update; Picard on the crack permeability
-        first; a stall ends the solve early.
-        """
-        model, ctl = self.model, self.control
-        max_newton = ctl.max_newton if max_it is None else int(max_it)
-        its = solves = 0
-        self.last_newton_trace = []
-        prev = math.inf
-        reason = "newton: no convergence"
-        ok = False
-        prev_status = None
-        flips = None
-        soft = None
-        full_k = ctl.lagged_permeability_rtol >= 1.0
-        freeze = ctl.chatter == "freeze"
-        nc = model.n_cells
-        # held contacts: mask, branch (OPEN/STICK/SLIP) and slip sign
-        fmask = np.zeros((nc, 3), dtype=bool)
-        fstat = np.zeros((nc, 3), dtype=np.int64)
-        fsgn = np.zeros((nc, 3))
-        frz = None
-        seen: set = set()        # branch sets tried
-        since = 0                # iterations since the held branches (or Jacobian) changed
-        merits: list = []        # scaled residual norms since the held branches changed
-        merit0 = math.inf
-        pending = None           # residual of the accepted line-search point
-        rfs: list = []           # mass residuals of the iterations
-        x_from = step_dx = None  # the last Newton update, to back off along it
-        backoffs = 0
-
-        def evaluate(xx, frozen):
-            self.counters.residual_evaluations += 1
-            return model.residual_and_jacobian(xx, old, dt, undrained=undrained,
-                                               structure=st, soft=soft,
-                                               permeability_derivative=full_k,
-                                               frozen=frozen)
-
-        while True:
-            res = evaluate(x, frz) if pending is None else pending
-            pending = None
-            R = res.residual
-            if not np.all(np.isfinite(R)):
-                # a wild update (a cell pressure so far out that rho(p) = exp(c_f p)
-                # overflows): back off along it before giving up; the solution of the step
-                # need not be far, only the linearisation was poor there
-                if step_dx is not None and backoffs < ctl.nonfinite_backoffs:
-                    backoffs += 1
-                    step_dx = 0.25 * step_dx
-                    x = x_from + step_dx
-                    continue
-                reason = "newton: non-finite"
-                break
-            backoffs = 0
-            ru, rf, merit = self._scaled(res)
-            self.last_newton_trace.append((its, ru, rf / max(res.mass_scale, 1e-300)))
-            if since == 0:
-                merits = []
-            merits.append(merit)
-            atol = 1e-18 * float(np.sum(model.flow.cell_mass(res.state.flow))) / dt
-            # the well row's storage C_w rho (p_w - p_w^n)/dt carries the round-off of
-            # p_w itself (eps |p_w|): with a whole well's compliance and nothing moving
-            # (a shut-in on tight rock) that is the whole residual
-            atol += 16 * np.finfo(float).eps * model.well_storage * abs(
-                res.state.p_w) * float(model.flow.fluid.density) / dt
-            u_ok = self._forces_ok(res, x, ru)
-            conv = u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol
-            if not conv and its > 0 and u_ok and rf > 0.5 * prev:
-                # stagnating: accepted below stagnation_rtol or at the residual's
-                # round-off floor, eps sum_ij |dR_i/dx_j| |x_j| over the flow rows (each
-                # term's share of the rounding of x_j: a wide open crack's transmissibility
-                # times |p| makes this floor, not the mass scale, the limit)
-                conv = rf <= ctl.stagnation_rtol * res.mass_scale + atol + self._floor(res, x)
-            if conv and frz is not None:
-                # converged with contacts held on branches: done if the exact law agrees
-                # (on its own branch the held law is the exact one), else move the
-                # contacts that sit on a wrong branch
-                exact = evaluate(x, None)
-                eru, erf, _ = self._scaled(exact)
-                if (self._forces_ok(exact, x, eru)
-                        and erf <= ctl.stagnation_rtol * exact.mass_scale
-                        + atol + self._floor(exact, x)):
-                    res = exact
-                    ok, reason = True, "converged"
-                    break
-                law, lsg = self._law_status(exact, st)
-                wrong = fmask & ((law != fstat) | ((law == SLIP) & (lsg != fsgn)))
-                tol = ctl.contact_gap_rtol * model.residual_aperture
-                if wrong.any() and tol > 0 and np.all(
-                        self._branch_violation(exact, st, fstat, fsgn)[wrong] <= tol):
-                    # the held branches miss the exact law only at the corners of the law,
-                    # by less than the gap tolerance (a contact whose solution sits at the
-                    # corner, where the branches on either side have no solution of their
-                    # own: moving it only cycles); accepted on the held branches
-                    self.counters.contact_tolerance_steps += 1
-                    ok, reason = True, "converged"
-                    break
-                if not wrong.any():
-                    # (only at round-off: the exact law is then the held one) release all
-                    fmask[:] = False
-                    frz = None
-                    flips[:] = 0
-                    prev = math.inf
-                    since = 0
-                    continue
-                # one contact at a time in a fixed order (least index, as in Murty's
-                # pivoting rule: moving two coupled contacts at the corner of the law at
-                # once can cycle), all at once first when more than two are wrong; a
-                # branch set already tried is skipped
-                cand = [(c, k) for c, k in zip(*np.nonzero(wrong))]
-                trials = [[ck] for ck in cand] + [cand]
-                if len(cand) > 2:
-                    trials = [cand] + trials
-                for sel in trials:
-                    ts_, tg_ = fstat.copy(), fsgn.copy()
-                    for c, k in sel:
-                        ts_[c, k] = law[c, k]
-                        tg_[c, k] = lsg[c, k] if law[c, k] == SLIP else 0.0
-                    key = (fmask.tobytes(), ts_[fmask].tobytes(), tg_[fmask].tobytes())
-                    if key not in seen:
-                        break
-                else:
-                    reason = "newton: active set cycles"
-                    break
-                seen.add(key)
-                fstat, fsgn = ts_, tg_
-                frz = (fmask.copy(), fstat, fsgn)
-                prev = math.inf
-                since = 0
-                continue
-            if conv:
-                ok, reason = True, "converged"
-                break
-            if its >= max_newton:
-                break
-            w = int(ctl.stall_iterations)
-            hw = w // 2
-            if w > 0 and len(merits) >= w and min(merits[-hw:]) > 0.5 * merits[-hw - 1]:
-                reason = "newton: stalled"
-                break
-            # Picard on the crack permeability while far from the solution, Newton once
-            # close, or once Picard has stopped converging (it is only linear: mass
-            # residual not halved over three iterations, from the sixth on); no return to
-            # Picard within the solve (switching at the threshold back and forth changes
-            # the Jacobian every iteration)
-            rfs.append(rf)
-            lag = ctl.lagged_permeability_rtol
-            if not full_k and (rf <= lag * res.mass_scale
-                               or (lag > 0 and its >= 6 and rf > 0.5 * rfs[-4])):
-                full_k = True
-                since = 0
-                res = evaluate(x, frz)
-            status = res.response[2]
-            if prev_status is not None:
-                flips = flips + (status != prev_status)
-            else:
-                flips = np.zeros(status.shape, dtype=np.int64)
-            prev_status = status
-            prev = rf
-            if its == 0:
-                merit0 = merit
-            if freeze:
-                # chattering contacts are held on their present branch; only at iterates
-                # no worse than the start (the statuses of a wild iterate say nothing)
-                new = (flips >= ctl.chatter_flips) & ~fmask
-                if merit <= merit0 and new.any():
-                    fmask |= new
-                    fstat[new] = status[new]
-                    fsgn[new] = np.where(status[new] == SLIP,
-                                         self._law_status(res, st)[1][new], 0.0)
-                    frz = (fmask.copy(), fstat.copy(), fsgn.copy())
-                    seen.add((fmask.tobytes(), fstat[fmask].tobytes(),
-                              fsgn[fmask].tobytes()))
-                    since = 0
-                    res = evaluate(x, frz)
-                    R = res.residual
-                    ru, rf, merit = self._scaled(res)
-            elif its >= ctl.line_search_after:
-                new_soft = flips >= ctl.chatter_flips
-                if new_soft.any() and (soft is None or not np.array_equal(new_soft, soft)):
-                    soft = new_soft
-                    res = evaluate(x, frz)
-            t0 = time.perf_counter()
-            try:
-                dx = _equilibrated_solve(res.jacobian, -R)
-            except RuntimeError:
-                self.counters.linear_solve_time += time.perf_counter() - t0
-                reason = "newton: singular"
-                break
-            self.counters.linear_solve_time += time.perf_counter() - t0
-            solves += 1
-            if not np.all(np.isfinite(dx)):
-                reason = "newton: non-finite"
-                break
-            step = 1.0
-            if since >= ctl.line_search_after and full_k:
-                # backtracking on the scaled residual norm (the full step is tried first:
-                # with the right active set it terminates; at corners of the contact law
-                # the statuses can cycle and the line search restores descent); not with
-                # the lagged Jacobian, whose direction need not descend
-                for _ in range(8):
-                    trial = evaluate(x + step * dx, frz)
-                    if np.all(np.isfinite(trial.residual)) and self._scaled(trial)[2] < merit:
-                        pending = trial
-                        break
-                    step *= 0.5
-            x_from, step_dx = x, step * dx
-            x = x + step_dx
-            its += 1
-            since += 1
-        self.counters.newton_iterations += its
-        self.counters.linear_solves += solves
-        return ok, reason, x, res, its, solves
 
     # ---------------------------------------------------------------- failure
     def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
@@ -857,17 +539,18 @@ class CoupledStepper:
         its = solves = 0
         res = None
         for k in ctl.fold_factors:
-            ok, _, xl, _, i, s = self._newton(x_start, old, h * k, False, st,
-                                              min(ctl.continuation_newton, ctl.max_newton))
-            its += i
-            solves += s
-            if not ok:
+            long = newton(self, x_start, old, h * k, False, st,
+                          min(ctl.continuation_newton, ctl.max_newton))
+            its += long.iterations
+            solves += long.solves
+            if not long.ok:
                 continue
-            ok, _, x, res, i, s = self._newton(xl, old, h, False, st, None)
-            its += i
-            solves += s
-            if ok:
-                return True, x, res, its, solves
+            n = newton(self, long.x, old, h, False, st, None)
+            its += n.iterations
+            solves += n.solves
+            res = n.residual
+            if n.ok:
+                return True, n.x, res, its, solves
         return False, x_start, res, its, solves
 
     def _solve(self, dt: float, undrained: bool, max_new: int | None,
@@ -890,10 +573,11 @@ class CoupledStepper:
         while True:
             backoff = continuation and not undrained and levels < ctl.continuation_levels
             x_start = x
-            ok, reason, x, res, i, s = self._newton(
-                x, old, h, undrained, st, ctl.continuation_newton if backoff else None)
-            its += i
-            solves += s
+            n = newton(self, x, old, h, undrained, st,
+                       ctl.continuation_newton if backoff else None)
+            ok, reason, x, res = n.ok, n.reason, n.x, n.residual
+            its += n.iterations
+            solves += n.solves
             if not ok and not undrained:
                 ok2, x2, res2, i, s = self._fold_predictor(x_start, old, h, st)
                 its += i

@@ -259,11 +259,6 @@ class OuterBoundary:
         object.__setattr__(self, "fixed", clean)
 
     @classmethod
-    def no_flow(cls) -> "OuterBoundary":
-        """Closed outer boundary."""
-        return cls({})
-
-    @classmethod
     def fixed_pressure(cls, pressure: float, tags=(1, 2, 3, 4, 5)) -> "OuterBoundary":
         """All listed outer tags (default: all outer edges) held at ``pressure`` [Pa]."""
         return cls({int(t): pressure for t in tags})

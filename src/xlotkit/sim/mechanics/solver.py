@@ -178,11 +178,6 @@ class MechanicsState:
         """Number of open contacts."""
         return int(np.sum(self.contact_status == OPEN))
 
-    @property
-    def n_slip(self) -> int:
-        """Number of slipping contacts."""
-        return int(np.sum(self.contact_status == SLIP))
-
 
 @dataclass(frozen=True, eq=False)
 class MechanicsResult:
