@@ -16,11 +16,14 @@ from xlotkit.sim.mechanics.config import (
 )
 from xlotkit.sim.mechanics.failure import TIP_TOUGHNESS_FACTOR, crack_tip_toughness
 from xlotkit.sim.mechanics.breakdown import (
+    BreakdownResult,
     PressureBreakdown,
     breakdown_pressure,
     crack_geometry,
     crack_start_azimuth,
+    wall_pressure_at_first_failure,
 )
+from xlotkit.sim.mechanics.fronts import CrackFront, CrackFronts
 from xlotkit.sim.mechanics.solver import (
     BONDED,
     FAILED_SHEAR,
@@ -31,14 +34,14 @@ from xlotkit.sim.mechanics.solver import (
     PRESET,
     SLIP,
     STICK,
-    BreakdownResult,
     MechanicsModel,
     MechanicsResult,
     MechanicsState,
-    wall_pressure_at_first_failure,
 )
 
 __all__ = [
+    "CrackFront",
+    "CrackFronts",
     "BONDED",
     "FAILED_SHEAR",
     "FAILED_TENSILE",

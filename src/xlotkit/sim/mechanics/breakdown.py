@@ -37,10 +37,10 @@ from xlotkit.sim.mechanics.solver import (
     MechanicsModel,
     MechanicsResult,
     MechanicsState,
-    wall_pressure_at_first_failure,
 )
 
-__all__ = ["PressureBreakdown", "breakdown_pressure", "crack_geometry", "crack_start_azimuth"]
+__all__ = ["BreakdownResult", "PressureBreakdown", "breakdown_pressure", "crack_geometry",
+           "crack_start_azimuth", "wall_pressure_at_first_failure"]
 
 # halvings of a pressure increment tried when no equilibrium is found (see settle)
 _MAX_SUBSTEP_DEPTH = 3
@@ -176,7 +176,7 @@ def crack_geometry(model: MechanicsModel, cluster_state: np.ndarray
     if not cracked.any():
         return connected, 0.0, math.nan
     idx = np.nonzero(cracked)[0]
-    inc = model._incidence[idx]                    # (k, n_nodes)
+    inc = model.cracks.incidence[idx]                    # (k, n_nodes)
     adj = (inc @ inc.T).tocsr()                    # share >= 1 node
     _, labels = csgraph.connected_components(sp.csr_matrix(adj), directed=False)
     on_wall = np.zeros(mesh.n_nodes, dtype=bool)
@@ -418,3 +418,128 @@ def breakdown_pressure(
             history.append((mid, length))
     return result(hi, True, "converged", p_i, lo, lo_state, lo_len, hi_az, hi_len, hi_state,
                   sorted(history))
+
+
+# =========================================================================== first failure
+@dataclass(frozen=True, eq=False)
+class BreakdownResult:
+    """First cluster failure under rising wall pressure.
+
+    Attributes
+    ----------
+    pressure : float
+        Wall pressure [Pa] at which the first cluster fails (within ``tol``).
+    clusters : ndarray of int
+        Clusters failing first (at ``pressure``, before any redistribution).
+    mode : ndarray of int
+        ``FAILED_TENSILE`` or ``FAILED_SHEAR`` for each of ``clusters``.
+    state_before : MechanicsState
+        Equilibrium just below ``pressure`` (no failure).
+    result_after : MechanicsResult
+        Step to ``pressure`` with failure (and its cascade) enabled.
+    solves : int
+        Equilibrium solves used by the search.
+    """
+
+    pressure: float
+    clusters: np.ndarray
+    mode: np.ndarray
+    state_before: MechanicsState
+    result_after: MechanicsResult
+    solves: int
+
+
+def wall_pressure_at_first_failure(
+    model: MechanicsModel,
+    state: MechanicsState,
+    p_max: float,
+    dp: float | None = None,
+    tol: float = 1e3,
+    pressurize_failed: bool = False,
+) -> BreakdownResult | None:
+    """Raise the wall pressure (pore pressure unchanged: impermeable wall) until a cluster
+    fails; locate that pressure by bisection.
+
+    Parameters
+    ----------
+    model : MechanicsModel
+    state : MechanicsState
+        Start (normally :meth:`MechanicsModel.initial_state`); must have no overstressed
+        cluster.
+    p_max : float
+        Highest wall pressure to try [Pa].
+    dp : float, optional
+        Scan increment [Pa]; default ``(p_max - p_start) / 20``.
+    tol : float
+        Width of the final bracket [Pa].
+    pressurize_failed : bool
+        If True the failed clusters (a crack connected to the hole) are filled with
+        the wall pressure; otherwise all cluster pressures stay as in ``state``.
+
+    Returns
+    -------
+    BreakdownResult or None
+        None if nothing fails up to ``p_max``.
+
+    Notes
+    -----
+    The criterion is the MDEM one: each intact cluster's *average* Terzaghi effective stress
+    (Eq. 2.15-2.21). At a stress concentration this average lies below the peak value at
+    the wall by about the stress gradient times the centroid offset of the wall clusters,
+    so the breakdown pressure of a mesh exceeds the point-criterion (Hubbert-Willis) value
+    by an amount proportional to the wall element size (see docs/mechanics.md).
+    """
+    p0 = state.wall_pressure
+    if not p_max > p0:
+        raise InputError("p_max must exceed the current wall pressure", key="p_max")
+    dp = (p_max - p0) / 20.0 if dp is None else float(dp)
+    if not dp > 0:
+        raise InputError("must be positive", key="dp")
+    solves = 0
+
+    base_p = np.asarray(state.pore_pressure)
+    failed = np.asarray(state.cluster_state) != INTACT
+
+    def pores(p: float) -> np.ndarray:
+        return np.where(failed, p, base_p) if pressurize_failed else base_p
+
+    def trial(p: float):
+        nonlocal solves
+        solves += 1
+        r = model.step(state, wall_pressure=p, pore_pressure=pores(p), check_failure=False)
+        if not r.converged:
+            raise RuntimeError(f"equilibrium at p_w = {p:g} Pa failed: {r.reason}")
+        mt, ms = model.failure_margins(r.state)
+        intact = np.asarray(r.state.cluster_state) == INTACT
+        return r.state, intact & (mt >= 0.0), intact & (ms >= 0.0)
+
+    st, t, s = trial(p0)
+    if np.any(t | s):
+        raise InputError("clusters are already overstressed at the start", key="state")
+    lo, lo_state = p0, st
+    hi = None
+    p = p0
+    while p < p_max:
+        p = min(p + dp, p_max)
+        st, t, s = trial(p)
+        if np.any(t | s):
+            hi = p
+            break
+        lo, lo_state = p, st
+    if hi is None:
+        return None
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        st, t, s = trial(mid)
+        if np.any(t | s):
+            hi = mid
+        else:
+            lo, lo_state = mid, st
+    _, t, s = trial(hi)
+    clusters = np.nonzero(t | s)[0]
+    mode = np.where(t[clusters], FAILED_TENSILE, FAILED_SHEAR)
+    after = model.step(lo_state, wall_pressure=hi, pore_pressure=pores(hi),
+                       check_failure=True)
+    solves += 1
+    return BreakdownResult(pressure=hi, clusters=clusters, mode=mode, state_before=lo_state,
+                           result_after=after, solves=solves)

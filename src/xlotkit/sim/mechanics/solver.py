@@ -45,8 +45,6 @@ from typing import Sequence
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from xlotkit.errors import InputError
 from xlotkit.sim.mechanics import mdem
@@ -65,15 +63,24 @@ from xlotkit.sim.mechanics.config import (
     SolverOptions,
 )
 from xlotkit.sim.mechanics.failure import (
-    TIP_DOMAIN_RADII,
     crack_tip_margin,
     crack_tip_toughness,
     mohr_coulomb_margin,
-    principal_stresses,
     strength_fields,
     tensile_margin,
-    tip_stress_intensities,
     toughness_margin,
+)
+from xlotkit.sim.mechanics.fronts import CrackFront, CrackFronts
+from xlotkit.sim.mechanics.states import (
+    BONDED,
+    FAILED_SHEAR,
+    FAILED_TENSILE,
+    INTACT,
+    INTERFACE,
+    OPEN,
+    PRESET,
+    SLIP,
+    STICK,
 )
 from xlotkit.sim.mesh import BOTTOM, HOLE, LEFT, Mesh
 
@@ -88,30 +95,16 @@ __all__ = [
     "PRESET",
     "SLIP",
     "STICK",
-    "BreakdownResult",
     "MechanicsModel",
     "MechanicsResult",
     "MechanicsState",
-    "wall_pressure_at_first_failure",
 ]
 
-# cluster states
-INTACT, FAILED_TENSILE, FAILED_SHEAR, INTERFACE, PRESET = 0, 1, 2, 3, 4
-# contact states
-BONDED, STICK, SLIP, OPEN = 0, 1, 2, 3
 _EPS_OPEN = 1e-9
 # active-set iterations before the residual line search is switched on (see _equilibrate)
 _LINE_SEARCH_AFTER = 10
 # status changes after which a contact counts as chattering (see _equilibrate)
 _CHATTER_FLIPS = 3
-# crack fronts (see MechanicsModel.crack_fronts): a cluster may extend the crack when
-# every failed cluster sharing an edge with it lies behind it within acos(0.4) = 66 deg
-# of the crack direction (on the KGD band the step past a pointed tip is 57 deg off the
-# crack line, a cluster beside the faces 80-90 deg); candidates within 0.1 h of the one
-# closest to the crack's line are ties; the line is fitted over twice the domain radius
-_FRONT_COS = 0.4
-_FRONT_TIE = 0.1
-_FRONT_LINE = 2.0
 
 
 def _ro(a: np.ndarray) -> np.ndarray:
@@ -205,41 +198,6 @@ class MechanicsResult:
     new_failures: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
 
-@dataclass(frozen=True, eq=False)
-class CrackFront:
-    """A crack tip as seen by the crack-tip criterion (:meth:`MechanicsModel.crack_fronts`).
-
-    Attributes
-    ----------
-    members : ndarray of int
-        The tip clusters (:meth:`MechanicsModel.crack_tips`) of this front: a connected
-        group of intact clusters around one crack end.
-    lead : int
-        The intact cluster that fails when the front propagates (at the tip, sharing an
-        edge with the crack behind it, closest to the crack's line; usually a member), or
-        -1 when the group is not at a crack end (e.g. clusters beside the faces classed as
-        tips in a nearly isotropic field) or no cluster qualifies; such groups keep the
-        cluster-average tip criterion
-        (:func:`xlotkit.sim.mechanics.failure.crack_tip_margin`).
-    stress_intensity : float
-        Mode-I stress intensity ``K_I`` [Pa m^0.5] at the front's tip (interaction
-        integral); nan when the group is not a crack end.
-    shear_stress_intensity : float
-        ``K_II`` [Pa m^0.5] (nan likewise).
-    direction : ndarray (2,)
-        The crack's direction at the tip, pointing ahead (zeros when not a crack end).
-    face_pressure : float
-        Crack fluid pressure used for the front [Pa].
-    """
-
-    members: np.ndarray
-    lead: int
-    stress_intensity: float
-    shear_stress_intensity: float
-    direction: np.ndarray
-    face_pressure: float
-
-
 class MechanicsModel:
     """MDEM model of a mesh: geometry, stiffness, strengths, loads and boundary conditions.
 
@@ -297,13 +255,10 @@ class MechanicsModel:
         # pressure load vector per cluster: A B^T (1, 1, 0)
         B = mdem.cst_b_matrix(nodes, tris)
         self.g_pressure = g.area[:, None] * (B[:, 0, :] + B[:, 1, :])
-        # for the crack-tip interaction integral (crack_fronts): shape-function gradients
-        # (c, 2, 3), compliance, node search, boundary nodes (weight 0), edge neighbours
-        self._grad_n = np.stack([B[:, 0, 0::2], B[:, 1, 1::2]], axis=1)
-        self._compliance = np.linalg.inv(self.C)
-        self._node_tree = cKDTree(nodes)
-        self._boundary_nodes = np.unique(mesh.boundary_edges)
-        self._edge_nbrs = _edge_neighbours(mesh)
+        # crack tips and fronts (the crack-tip criterion): the interaction integral's
+        # shape-function gradients (c, 2, 3) and compliance, the mesh topology
+        self.cracks = CrackFronts(mesh, g.area, np.stack([B[:, 0, 0::2], B[:, 1, 1::2]], axis=1),
+                                  np.linalg.inv(self.C), rock.young, rock.poisson)
         # strengths: nominal (smooth field) and size-scaled (at a crack tip); with scaling
         # mode "all" (or scaling off) the two coincide. See strengths() and docs.
         sc = rock.scaling
@@ -311,15 +266,6 @@ class MechanicsModel:
         self.tensile_strength, self.cohesion = strength_fields(
             rock, g.area, scaled=sc.enabled and sc.mode == "all")
         self._tip_scaling = sc.enabled and sc.mode == "crack_tip"
-        # cluster-node incidence (n_c x n_nodes), for "touches a failed cluster"
-        nt = mesh.n_triangles
-        self._incidence = sp.csr_matrix(
-            (np.ones(3 * nt), (np.repeat(np.arange(nt), 3), tris.reshape(-1))),
-            shape=(nt, mesh.n_nodes))
-        # pairs (i, j) of clusters sharing a node (i == j included), for crack tips
-        touch = (self._incidence @ self._incidence.T).tocoo()
-        self._touch_pairs = (touch.row.astype(np.int64), touch.col.astype(np.int64))
-        self._node_clusters = self._incidence.T.tocsr()
         self.tan_phi = math.tan(rock.friction_angle)
         # contact directions used once a cluster is failed (interfaces override some)
         self.c_normal = g.normal.copy()
@@ -707,218 +653,19 @@ class MechanicsModel:
 
     # ------------------------------------------------------------------ failure
     def touches_crack(self, cluster_state: np.ndarray) -> np.ndarray:
-        """Clusters sharing at least one node with a failed (tensile, shear or preset)
-        cluster, i.e. the clusters around the crack faces and tips.
-
-        Interface clusters do not count: a pre-defined plane is not a crack the rock grew.
-        """
-        cs = np.asarray(cluster_state)
-        cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
-        if not cracked.any():
-            return np.zeros(len(cs), dtype=bool)
-        on_crack = np.asarray(self._incidence[cracked].sum(axis=0)).ravel() > 0
-        return np.asarray(self._incidence @ on_crack.astype(float)).ravel() > 0
+        """Clusters sharing a node with a failed (tensile, shear or preset) cluster
+        (:meth:`CrackFronts.touches_crack`)."""
+        return self.cracks.touches_crack(cluster_state)
 
     def crack_tips(self, state: MechanicsState) -> tuple[np.ndarray, np.ndarray]:
-        """Intact clusters ahead of a crack end, and the fluid pressure on that crack.
-
-        A cluster ``i`` touching the crack (:meth:`touches_crack`) is a *tip* cluster when
-        every failed cluster it shares a node with lies in ``i``'s own plane of largest
-        tension: the offset ``x_i - x_c`` between the centroids is closer to the
-        direction of the most compressive principal stress of ``i`` than to the least
-        compressive one (the opening direction). A mode-I crack grows in that plane, so
-        ``i`` is where the crack would extend; a cluster beside the crack faces has a
-        failed neighbour across the crack (offset along its opening direction) and is
-        not a tip.
-
-        Parameters
-        ----------
-        state : MechanicsState
-
-        Returns
-        -------
-        tip : ndarray of bool (n_c,)
-        face_pressure : ndarray (n_c,) [Pa]
-            Mean pressure of the failed clusters touching each tip cluster (the crack
-            fluid pressure at that tip); 0 elsewhere.
-        """
-        cs = np.asarray(state.cluster_state)
-        nc = len(cs)
-        cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
-        tip = np.zeros(nc, dtype=bool)
-        pf = np.zeros(nc)
-        if not cracked.any():
-            return tip, pf
-        i, c = self._touch_pairs
-        keep = (cs[i] == INTACT) & cracked[c]
-        i, c = i[keep], c[keep]
-        d = self.mesh.centroids[i] - self.mesh.centroids[c]
-        # angle of the most compressive principal stress of i = the crack plane direction
-        _, _, ang = principal_stresses(np.asarray(state.effective_stress)[i])
-        along = np.abs(d[:, 0] * np.cos(ang) + d[:, 1] * np.sin(ang))
-        across = np.abs(d[:, 1] * np.cos(ang) - d[:, 0] * np.sin(ang))
-        tip[i] = True
-        tip[i[across >= along]] = False
-        n = np.bincount(i, minlength=nc)
-        p = np.asarray(state.pore_pressure)
-        pf = np.where(tip, np.bincount(i, weights=p[c], minlength=nc) / np.maximum(n, 1), 0.0)
-        return tip, pf
+        """Intact clusters ahead of a crack end and the fluid pressure on that crack
+        (:meth:`CrackFronts.crack_tips`)."""
+        return self.cracks.crack_tips(state)
 
     def crack_fronts(self, state: MechanicsState) -> list[CrackFront]:
-        """Group the tip clusters into crack fronts and measure ``K_I`` at each crack end.
-
-        The tip clusters (:meth:`crack_tips`) that share nodes form a group. Around the
-        group's most loaded member ``c0`` (largest singular opening tension relative to its
-        strength; size ``h = sqrt(2 A)``, ``r_in, r_out = TIP_DOMAIN_RADII h``) the crack is
-        located from the failed clusters: its direction ``t`` is the principal axis (area
-        weighted) of the failed centroids within ``2 r_out``, pointing towards ``c0``; its
-        tip is the point of the line through their centroid level with the furthest node,
-        along ``t``, of the failed clusters within ``r_out`` (the node or edge where the
-        crack ends). The group is a crack end only if that tip lies within ``r_in / 2`` of
-        ``c0``: groups beside the faces, or at the crack mouth on the hole wall, find it
-        farther away (or not at all) and get no lead.
-
-        At a crack end ``K_I`` (and ``K_II``) is measured by the interaction integral over
-        the annulus ``r_in < r < r_out`` about the tip
-        (:func:`~xlotkit.sim.mechanics.failure.tip_stress_intensities`; the crack-induced
-        field ``S - p_f I`` of the intact clusters, the failed clusters as the crack,
-        weight 0 on the mesh boundary). The domain is several clusters wide, so ``K_I`` does
-        not depend on whether the crack ends on an edge or at a node, which the
-        cluster-average criterion did (KGD band: flat tips extended at 0.99-1.03 ``K_IC``,
-        pointed ones at 1.19-1.38; now 1.006-1.023 for both).
-
-        The front's *lead* is the cluster that fails when ``K_I`` reaches the toughness:
-        among the intact clusters within ``r_in / 2`` of the tip that share an edge with a
-        failed cluster, and whose every such failed neighbour lies behind them within 66
-        deg of ``t``, the one closest to the crack's line, ties (within 0.1 h) broken by the
-        opening tension. Growing the crack through an edge keeps it connected (for the
-        fluid too); the line fitted over ``2 r_out`` keeps a mode-I crack straight on a
-        lattice whose rows run at +-26.6 deg to it (over ``r_out`` the ~h/2 wander of the
-        lattice path tilted it by up to 13 deg and the path drifted out of the KGD band).
-
-        Returns
-        -------
-        list of CrackFront
-        """
-        tip, pf = self.crack_tips(state)
-        if not tip.any():
-            return []
-        cs = np.asarray(state.cluster_state)
-        cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
-        idx = np.flatnonzero(tip)
-        stress = np.asarray(state.stress)
-        sing = stress[idx].copy()
-        sing[:, :2] -= pf[idx, None]
-        _, s2, _ = principal_stresses(sing)
-        T, _ = self.strengths(cs)
-        load = -s2 / np.maximum(T[idx], 1.0)
-        i, c = self._touch_pairs
-        keep = tip[i] & tip[c]
-        pos = np.full(len(cs), -1, dtype=np.int64)
-        pos[idx] = np.arange(len(idx))
-        graph = sp.csr_matrix((np.ones(int(keep.sum())), (pos[i[keep]], pos[c[keep]])),
-                              shape=(len(idx), len(idx)))
-        n_groups, label = connected_components(graph, directed=False)
-        cen = self.mesh.centroids
-        cracked_idx = np.flatnonzero(cracked)
-        # clusters that can extend a crack: intact, sharing an edge with a failed one
-        nb = self._edge_nbrs
-        pool = np.flatnonzero((cs == INTACT) & np.any((nb >= 0) & cracked[np.maximum(nb, 0)],
-                                                      axis=1))
-        fronts = []
-        for gi in range(n_groups):
-            mem = np.flatnonzero(label == gi)
-            c0 = idx[mem[np.argmax(load[mem])]]
-            h = math.sqrt(2.0 * self.area[c0])
-            r_in, r_out = TIP_DOMAIN_RADII[0] * h, TIP_DOMAIN_RADII[1] * h
-            front = self._locate_tip(c0, cracked_idx, r_out)
-            lead, k1, k2 = -1, math.nan, math.nan
-            t = np.zeros(2)
-            if front is not None and np.hypot(*(front[0] - cen[c0])) <= 0.5 * r_in:
-                x_tip, t = front
-                k1, k2 = self._tip_stress_intensities(state, x_tip, t, r_in, r_out,
-                                                      float(pf[c0]), cracked)
-                cand = pool[np.hypot(*(cen[pool] - x_tip).T) <= 0.5 * r_in]
-                lead = self._front_lead(cand, stress, float(pf[c0]), T, cracked, t, x_tip, h)
-            fronts.append(CrackFront(members=idx[mem], lead=lead, stress_intensity=k1,
-                                     shear_stress_intensity=k2, direction=t,
-                                     face_pressure=float(pf[c0])))
-        return fronts
-
-    def _locate_tip(self, c0: int, cracked_idx: np.ndarray, radius: float):
-        """Tip point and crack direction near cluster ``c0`` (see :meth:`crack_fronts`),
-        or None without failed clusters nearby."""
-        cen = self.mesh.centroids
-        dist = np.hypot(*(cen[cracked_idx] - cen[c0]).T)
-        near = cracked_idx[dist < radius]
-        if near.size == 0:
-            return None
-        # the crack's line over twice the radius: a lattice path wanders by ~h/2, which
-        # tilted a line fitted over 6 h by up to 13 deg (measured), and the lead is chosen
-        # on it
-        line = cracked_idx[dist < _FRONT_LINE * radius]
-        w = self.area[line]
-        m = (w @ cen[line]) / w.sum()
-        d = cen[line] - m
-        if line.size == 1:
-            t = cen[c0] - m
-        else:
-            evals, evecs = np.linalg.eigh((d * w[:, None]).T @ d)
-            t = evecs[:, int(np.argmax(evals))]
-        nt = float(np.hypot(*t))
-        if nt == 0.0:
-            return None
-        t = t / nt
-        if (cen[c0] - m) @ t < 0.0:
-            t = -t
-        ahead = float(np.max((self.mesh.nodes[self.mesh.triangles[near]] - m) @ t))
-        return m + ahead * t, t
-
-    def _front_lead(self, cand: np.ndarray, stress: np.ndarray, face_pressure: float,
-                    strength: np.ndarray, cracked: np.ndarray, t: np.ndarray,
-                    x_tip: np.ndarray, h: float) -> int:
-        """The cluster that extends the crack (see :meth:`crack_fronts`), or -1."""
-        cen = self.mesh.centroids
-        ok = []
-        for ci in cand:
-            nb = self._edge_nbrs[ci]
-            nb = nb[nb >= 0]
-            nb = nb[cracked[nb]]
-            d = cen[ci] - cen[nb]
-            if nb.size and np.all(d @ t > _FRONT_COS * np.hypot(d[:, 0], d[:, 1])):
-                ok.append(ci)
-        if not ok:
-            return -1
-        ok = np.array(ok)
-        lat = np.abs((cen[ok] - x_tip) @ np.array([-t[1], t[0]]))
-        tie = ok[lat <= lat.min() + _FRONT_TIE * h]
-        sing = stress[tie].copy()
-        sing[:, :2] -= face_pressure
-        _, s2, _ = principal_stresses(sing)
-        return int(tie[np.argmax(-s2 / np.maximum(strength[tie], 1.0))])
-
-    def _tip_stress_intensities(self, state: MechanicsState, x_tip: np.ndarray,
-                                t: np.ndarray, r_in: float, r_out: float,
-                                face_pressure: float,
-                                cracked: np.ndarray) -> tuple[float, float]:
-        """``K_I, K_II`` [Pa m^0.5] by the interaction integral (see :meth:`crack_fronts`)."""
-        nodes = self.mesh.nodes
-        tris = self.mesh.triangles
-        near = np.asarray(self._node_tree.query_ball_point(x_tip, r_out), dtype=np.int64)
-        if near.size == 0:
-            return 0.0, 0.0
-        els = np.unique(self._node_clusters[near].indices)
-        els = els[~cracked[els]]
-        q = np.zeros(self.mesh.n_nodes)
-        q[near] = np.clip((r_out - np.hypot(*(nodes[near] - x_tip).T)) / (r_out - r_in),
-                          0.0, 1.0)
-        q[self._boundary_nodes] = 0.0
-        stress = np.array(np.asarray(state.stress)[els], dtype=float)
-        stress[:, :2] -= face_pressure
-        return tip_stress_intensities(
-            self._grad_n[els], tris[els], self.area[els], self.mesh.centroids[els],
-            np.asarray(state.displacement), stress, self._compliance, q, x_tip, t,
-            self.rock.young, self.rock.poisson)
+        """The crack fronts with their ``K_I`` and lead cluster
+        (:meth:`CrackFronts.fronts`, with the strengths of :meth:`strengths`)."""
+        return self.cracks.fronts(state, self.strengths(state.cluster_state)[0])
 
     @property
     def fracture_toughness(self) -> float | None:
@@ -1082,137 +829,3 @@ def _diag(v: np.ndarray):
     return sp.diags(v, format="csr")
 
 
-def _edge_neighbours(mesh: Mesh) -> np.ndarray:
-    """Triangles sharing an edge with each triangle, (n_c, 3), padded with -1."""
-    _, owners = mesh.edges()
-    a, b = owners[owners[:, 1] >= 0].T
-    pairs = np.concatenate([np.column_stack([a, b]), np.column_stack([b, a])])
-    pairs = pairs[np.argsort(pairs[:, 0], kind="stable")]
-    slot = np.arange(len(pairs)) - np.searchsorted(pairs[:, 0], pairs[:, 0], side="left")
-    nb = -np.ones((mesh.n_triangles, 3), dtype=np.int64)
-    nb[pairs[:, 0], slot] = pairs[:, 1]
-    return nb
-
-
-@dataclass(frozen=True, eq=False)
-class BreakdownResult:
-    """First cluster failure under rising wall pressure.
-
-    Attributes
-    ----------
-    pressure : float
-        Wall pressure [Pa] at which the first cluster fails (within ``tol``).
-    clusters : ndarray of int
-        Clusters failing first (at ``pressure``, before any redistribution).
-    mode : ndarray of int
-        ``FAILED_TENSILE`` or ``FAILED_SHEAR`` for each of ``clusters``.
-    state_before : MechanicsState
-        Equilibrium just below ``pressure`` (no failure).
-    result_after : MechanicsResult
-        Step to ``pressure`` with failure (and its cascade) enabled.
-    solves : int
-        Equilibrium solves used by the search.
-    """
-
-    pressure: float
-    clusters: np.ndarray
-    mode: np.ndarray
-    state_before: MechanicsState
-    result_after: MechanicsResult
-    solves: int
-
-
-def wall_pressure_at_first_failure(
-    model: MechanicsModel,
-    state: MechanicsState,
-    p_max: float,
-    dp: float | None = None,
-    tol: float = 1e3,
-    pressurize_failed: bool = False,
-) -> BreakdownResult | None:
-    """Raise the wall pressure (pore pressure unchanged: impermeable wall) until a cluster
-    fails; locate that pressure by bisection.
-
-    Parameters
-    ----------
-    model : MechanicsModel
-    state : MechanicsState
-        Start (normally :meth:`MechanicsModel.initial_state`); must have no overstressed
-        cluster.
-    p_max : float
-        Highest wall pressure to try [Pa].
-    dp : float, optional
-        Scan increment [Pa]; default ``(p_max - p_start) / 20``.
-    tol : float
-        Width of the final bracket [Pa].
-    pressurize_failed : bool
-        If True the failed clusters (a crack connected to the hole) are filled with
-        the wall pressure; otherwise all cluster pressures stay as in ``state``.
-
-    Returns
-    -------
-    BreakdownResult or None
-        None if nothing fails up to ``p_max``.
-
-    Notes
-    -----
-    The criterion is the MDEM one: each intact cluster's *average* Terzaghi effective stress
-    (Eq. 2.15-2.21). At a stress concentration this average lies below the peak value at
-    the wall by about the stress gradient times the centroid offset of the wall clusters,
-    so the breakdown pressure of a mesh exceeds the point-criterion (Hubbert-Willis) value
-    by an amount proportional to the wall element size (see docs/mechanics.md).
-    """
-    p0 = state.wall_pressure
-    if not p_max > p0:
-        raise InputError("p_max must exceed the current wall pressure", key="p_max")
-    dp = (p_max - p0) / 20.0 if dp is None else float(dp)
-    if not dp > 0:
-        raise InputError("must be positive", key="dp")
-    solves = 0
-
-    base_p = np.asarray(state.pore_pressure)
-    failed = np.asarray(state.cluster_state) != INTACT
-
-    def pores(p: float) -> np.ndarray:
-        return np.where(failed, p, base_p) if pressurize_failed else base_p
-
-    def trial(p: float):
-        nonlocal solves
-        solves += 1
-        r = model.step(state, wall_pressure=p, pore_pressure=pores(p), check_failure=False)
-        if not r.converged:
-            raise RuntimeError(f"equilibrium at p_w = {p:g} Pa failed: {r.reason}")
-        mt, ms = model.failure_margins(r.state)
-        intact = np.asarray(r.state.cluster_state) == INTACT
-        return r.state, intact & (mt >= 0.0), intact & (ms >= 0.0)
-
-    st, t, s = trial(p0)
-    if np.any(t | s):
-        raise InputError("clusters are already overstressed at the start", key="state")
-    lo, lo_state = p0, st
-    hi = None
-    p = p0
-    while p < p_max:
-        p = min(p + dp, p_max)
-        st, t, s = trial(p)
-        if np.any(t | s):
-            hi = p
-            break
-        lo, lo_state = p, st
-    if hi is None:
-        return None
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        st, t, s = trial(mid)
-        if np.any(t | s):
-            hi = mid
-        else:
-            lo, lo_state = mid, st
-    _, t, s = trial(hi)
-    clusters = np.nonzero(t | s)[0]
-    mode = np.where(t[clusters], FAILED_TENSILE, FAILED_SHEAR)
-    after = model.step(lo_state, wall_pressure=hi, pore_pressure=pores(hi),
-                       check_failure=True)
-    solves += 1
-    return BreakdownResult(pressure=hi, clusters=clusters, mode=mode, state_before=lo_state,
-                           result_after=after, solves=solves)
