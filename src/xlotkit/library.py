@@ -20,7 +20,7 @@ the scene's realised stresses (the fast regression test and ``xlotkit library ch
 :func:`scenes_markdown` tabulates the stored truths (``xlotkit library list``).
 What "realised" means is the engine's (the 2D engine: the in-situ stresses over the crack it
 made and the strength of the wall where it started, see
-:meth:`xlotkit.sim.coupling.engine.MDEMEngine._realised`; the lumped model: the input).
+:func:`xlotkit.sim.coupling.results.realised_truth`; the lumped model: the input).
 
 What "closure in the record" means is decided from the log itself: a shut-in that ends more
 than :data:`CLOSURE_MARGIN` below the realised sigma_h holds a closure, one that ends more

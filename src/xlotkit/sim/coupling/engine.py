@@ -53,7 +53,7 @@ Truth: besides the scene's inputs, :meth:`MDEMEngine.result` reports what the mo
 realised (``truth["realised"]``): the stresses normal to and along the crack's plane in the
 in-situ state over the crack (what the crack closes against, and the far-field stress along
 it), the strength of the wall where it started, the wall's hoop stress (see
-:meth:`MDEMEngine._realised`).
+:func:`xlotkit.sim.coupling.results.realised_truth`).
 """
 
 from __future__ import annotations
@@ -62,75 +62,113 @@ import json
 import math
 import time as _time
 from collections.abc import Mapping
-from dataclasses import replace
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
 from xlotkit import formulas
 from xlotkit.errors import InputError, XlotkitError
-from xlotkit.record import Event, PressureReference, Record
-from xlotkit.sim.coupling.geometry import fracture_summary
-from xlotkit.sim.coupling.model import (
-    CoupledModel,
-    CoupledState,
-    grain_pore_compressibility,
+from xlotkit.sim.coupling.build import (
+    DECOUPLED_BIOT,
+    RESIDUAL_APERTURE,
+    build_model,
+    total_well_compliance,
+    well_column,
 )
+from xlotkit.sim.coupling.geometry import fracture_summary
+from xlotkit.sim.coupling.model import CoupledState
+from xlotkit.sim.coupling.results import make_record, realised_truth
 from xlotkit.sim.coupling.stepper import (
     CoupledControl,
     CoupledCounters,
     CoupledStepper,
     TimeStepControl,
 )
-from xlotkit.sim.flow import (
-    FlowModel,
-    FlowState,
-    FluidProperties,
-    OuterBoundary,
-    RockFlowProperties,
-    WellCondition,
-)
-from xlotkit.sim.mechanics import (
-    FAILED_SHEAR,
-    FAILED_TENSILE,
-    PRESET,
-    FracturePlane,
-    InSituStress,
-    InterfacePlane,
-    MechanicsModel,
-    MechanicsState,
-    RockProperties,
-    StrengthScaling,
-)
-from xlotkit.sim.mechanics.breakdown import crack_geometry
-from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
+from xlotkit.sim.flow import FlowState
+from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, PRESET, MechanicsState
 from xlotkit.sim.output import Snapshot
 from xlotkit.sim.run.contract import EngineResult, StepCounters, StepOutcome, series_rows
 from xlotkit.sim.scene import Scene
-from xlotkit.sim.well import (
-    Column,
-    PhaseDrive,
-    WellDrive,
-    hydrostatic_bottomhole,
-    phase_place,
-    surface_from_bottomhole,
-    well_compliance,
-)
+from xlotkit.sim.well import PhaseDrive, WellDrive, phase_place, surface_from_bottomhole
 
-__all__ = ["MDEMEngine", "MDEMResult", "MDEMStepOutcome", "build_model"]
+__all__ = ["DECOUPLED_BIOT", "RESIDUAL_APERTURE", "EventControl", "MDEMEngine", "MDEMResult",
+           "MDEMStepOutcome", "Stepping", "build_model", "total_well_compliance",
+           "well_column"]
 
-#: Biot coefficient of intact clusters when ``effects.poroelastic`` is off.
-DECOUPLED_BIOT = 1e-3
-#: Tolerance [Pa] of a located pressure end of a phase.
-PRESSURE_EVENT_TOL = 1e4
-#: Relative tolerance of a located flowback/bleed volume end.
-VOLUME_EVENT_RTOL = 1e-3
-#: Crack residual (closed) hydraulic aperture [m].
-RESIDUAL_APERTURE = 1e-5
 #: Rock bulk density [kg/m^3] for the crack-speed limit only (the model is quasi-static
 #: and has no other use for it); a typical sedimentary rock.
 ROCK_DENSITY = 2500.0
+
+
+@dataclass(frozen=True)
+class EventControl:
+    """The 2D engine's own step rules, on top of the stepper's (:class:`TimeStepControl`).
+
+    Attributes
+    ----------
+    first_step : float
+        The run's first step [s] is ``min(first_step, numerics.dt_max)``.
+    phase_start_step : float
+        A phase starts with a step of at least this [s] (the last phase may have ended on
+        a floor step).
+    pressure_tol : float
+        A pressure end of a phase is located to within this [Pa] (10 kPa) by repeating the
+        step shorter.
+    volume_rtol : float
+        A flowback's volume end likewise, relative to the volume.
+    locate_tries : int
+        Shorter repeats per located end before the step is taken as it is.
+    locate_clamp : (float, float)
+        The secant's fraction of the step is kept within these bounds.
+    locate_overshoot : float
+        The repeat is that fraction times ``1 + locate_overshoot`` (lands just past the
+        end, not just before it).
+    dp_fraction : float
+        A step rejected by the pressure-change rule (``numerics.dp_max`` on a step without
+        failures) is repeated scaled to ``dp_fraction * dp_max`` of change.
+    resolve_crack_reversals : bool
+        Repeat shorter a step in which a crack reverses the open/closed change of the step
+        before (docs/coupling.md, "Hard cases").
+    """
+
+    first_step: float = 1.0
+    phase_start_step: float = 1e-3
+    pressure_tol: float = 1e4
+    volume_rtol: float = 1e-3
+    locate_tries: int = 8
+    locate_clamp: tuple[float, float] = (0.05, 0.95)
+    locate_overshoot: float = 1e-3
+    dp_fraction: float = 0.5
+    resolve_crack_reversals: bool = True
+
+
+@dataclass(frozen=True)
+class Stepping:
+    """All step-control knobs of a 2D run, grouped: the Newton and failure settings of one
+    step (:class:`CoupledControl`), the adaptive time stepping (:class:`TimeStepControl`:
+    the thesis's failure-count rule, floor and ceiling, pressure change, continuation and
+    jumps at the floor) and the engine's event rules (:class:`EventControl`).
+    :meth:`from_scene` sets them from ``[numerics]``."""
+
+    newton: CoupledControl
+    time: TimeStepControl
+    events: EventControl = EventControl()
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> Stepping:
+        """``numerics.max_newton``, ``dt_min``, ``dt_max``, ``n1``, ``n2``, ``dp_max``; the
+        crack-speed limit is the rock's Rayleigh-wave speed."""
+        num = scene.numerics
+        ev = EventControl()
+        newton = CoupledControl(max_newton=int(num.max_newton),
+                                crack_speed=formulas.rayleigh_speed(
+                                    scene.rock.youngs_modulus, scene.rock.poisson_ratio,
+                                    ROCK_DENSITY))
+        time = TimeStepControl(dt_initial=min(ev.first_step, num.dt_max), dt_min=num.dt_min,
+                               dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
+                               dp_max=float(num.dp_max))
+        return cls(newton, time, ev)
 
 
 _MECH_FIELDS = ("displacement", "pore_pressure", "stress", "effective_stress",
@@ -145,123 +183,6 @@ _ROW_KEYS = ("t", "bottomhole_pressure", "well_pressure", "surface_pressure",
 #: The step and result types of the 2D engine: the engine contract's (one for every engine).
 MDEMStepOutcome = StepOutcome
 MDEMResult = EngineResult
-
-
-# =========================================================================== model
-def _scene_mesh(scene: Scene) -> Mesh:
-    mo, geo = scene.mesh, scene.geometry
-    if mo.file is not None:
-        path = Path(mo.file)
-        if not path.is_absolute() and scene.source_file:
-            path = Path(scene.source_file).parent / path
-        return read_mesh(path)
-    band = None
-    h_wall = mo.wall_element_size
-    if mo.fracture_band:
-        h_band = mo.band_element_size or h_wall or 2 * math.pi * geo.hole_radius / 64
-        band = FractureBand(math.radians(scene.stresses.sigma_H_azimuth), mo.band_width,
-                            h_band, mo.band_length, strip=bool(mo.band_strip))
-    try:
-        return borehole_mesh(size=geo.domain_size, radius=geo.hole_radius, growth=mo.growth,
-                             h_wall=h_wall, h_max=mo.max_element_size, fracture_band=band,
-                             jitter=mo.jitter, seed=scene.mesh_seed)
-    except InputError as exc:
-        key = {"h_wall": "mesh.wall_element_size", "h_max": "mesh.max_element_size",
-               "fracture_band.h": "mesh.band_element_size", "radius": "geometry.hole_radius",
-               "size": "geometry.domain_size"}.get(exc.key or "", f"mesh.{exc.key}")
-        raise InputError(exc.message, key=key, file=scene.source_file,
-                         expected=exc.expected) from None
-
-
-def _far_field(scene: Scene) -> tuple[float, float, float]:
-    """Far-field (sigma_x, sigma_y, sigma_xy) [Pa] with sigma_H along its azimuth."""
-    st = scene.stresses
-    th = math.radians(st.sigma_H_azimuth)
-    c, s = math.cos(th), math.sin(th)
-    sx = st.sigma_H * c * c + st.sigma_h * s * s
-    sy = st.sigma_H * s * s + st.sigma_h * c * c
-    sxy = (st.sigma_H - st.sigma_h) * s * c
-    # round-off of the rotation must not create a shear the roller boundaries cannot carry
-    if abs(sxy) < 1e-9 * max(st.sigma_H, 1.0):
-        sxy = 0.0
-    return sx, sy, sxy
-
-
-def well_column(scene: Scene) -> Column:
-    """The fluid column surface -> open hole (friction only with ``effects.pipe_friction``)."""
-    comp = scene.completion_model()
-    col = comp.column(density=scene.fluid.density, viscosity=scene.fluid.viscosity)
-    if not scene.effects.pipe_friction:
-        col = replace(col, friction=False)
-    return col
-
-
-def total_well_compliance(scene: Scene) -> float:
-    """Whole-well compliance C_w [m^3/Pa] the scene asks for (0 without well storage)."""
-    if not scene.effects.well_storage:
-        return 0.0
-    if scene.completion.well_compliance is not None:
-        return float(scene.completion.well_compliance)
-    return well_compliance(scene.completion_model())
-
-
-def build_model(scene: Scene) -> tuple[CoupledModel, float]:
-    """The coupled model of a scene and the initial borehole pressure [Pa].
-
-    See the module docstring for what each scene key becomes.
-    """
-    if not isinstance(scene, Scene):
-        raise InputError(f"not a Scene: {scene!r}", key="scene")
-    mesh = _scene_mesh(scene)
-    rk, fl, eff, geo = scene.rock, scene.fluid, scene.effects, scene.geometry
-    sx, sy, sxy = _far_field(scene)
-    p0 = scene.stresses.pore_pressure
-    col = well_column(scene)
-    pw0 = (float(scene.completion.initial_pressure)
-           if scene.completion.initial_pressure is not None else hydrostatic_bottomhole(col))
-    if pw0 < p0 * (1.0 - 1e-12):
-        raise InputError(
-            f"initial borehole pressure {pw0 / 1e6:.3f} MPa is below the pore pressure "
-            f"{p0 / 1e6:.3f} MPa (an underbalanced hole is not a leak-off test)",
-            key="completion.initial_pressure", file=scene.source_file,
-            expected=f">= stresses.pore_pressure ({p0:g} Pa)")
-    if sxy != 0.0:
-        # rollers need a diagonal far field; the mechanics pins rigid modes otherwise
-        from xlotkit.sim.mechanics import BoundaryConditions
-
-        boundary = BoundaryConditions("tractions")
-    else:
-        boundary = None
-    biot = float(rk.biot) if eff.poroelastic else DECOUPLED_BIOT
-    scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
-                              reference_area=rk.strength_scaling_reference_area,
-                              exponent=rk.strength_scaling_exponent,
-                              toughness=rk.toughness)
-    rock = RockProperties(young=rk.youngs_modulus, poisson=rk.poisson_ratio, biot=biot,
-                          tensile_strength=rk.tensile_strength, cohesion=rk.cohesion,
-                          friction_angle_deg=rk.friction_angle,
-                          heterogeneity=rk.heterogeneity if eff.heterogeneity else 0.0,
-                          seed=int(scene.rock_seed) % (2**63), scaling=scaling)
-    planes = tuple(InterfacePlane(p.start, p.end, p.friction_angle) for p in eff.interface)
-    fplane = None
-    if eff.fracture_plane:
-        fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
-                               friction_angle_deg=rk.fracture_friction_angle)
-    mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes, fracture_plane=fplane)
-    cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
-                                                  rk.poisson_ratio)))
-          if eff.poroelastic else 0.0)
-    fluid = FluidProperties(density=fl.density, compressibility=fl.compressibility,
-                            viscosity=fl.viscosity, reference_pressure=0.0)
-    flow = FlowModel(mesh, fluid, RockFlowProperties(rk.permeability, rk.porosity, cr, p0),
-                     WellCondition(rate=0.0), OuterBoundary.fixed_pressure(p0),
-                     height=geo.segment_height)
-    h = geo.segment_height
-    extra = max(total_well_compliance(scene) - float(flow.well_storage), 0.0) / h
-    model = CoupledModel(mech, flow, residual_aperture=RESIDUAL_APERTURE,
-                         well_compliance=extra, check_storage=eff.poroelastic)
-    return model, pw0
 
 
 # =========================================================================== engine
@@ -300,14 +221,9 @@ class MDEMEngine:
         self.column = well_column(sc)
         # the well head: rates, surface pressure and phase ends of the phase in force
         self._well = WellDrive(self.column)
-        num = sc.numerics
-        self.control = CoupledControl(max_newton=int(num.max_newton),
-                                      crack_speed=formulas.rayleigh_speed(
-                                          sc.rock.youngs_modulus, sc.rock.poisson_ratio,
-                                          ROCK_DENSITY))
-        self.tsc = TimeStepControl(dt_initial=min(1.0, num.dt_max), dt_min=num.dt_min,
-                                   dt_max=num.dt_max, n1=int(num.n1), n2=int(num.n2),
-                                   dp_max=float(num.dp_max))
+        self.stepping = Stepping.from_scene(sc)
+        self.control = self.stepping.newton       # Newton and failure rules of a step
+        self.tsc = self.stepping.time             # adaptive time stepping
         self.rho0 = float(self.cm.flow.fluid.density)
         mesh = self.cm.mesh
         wall = np.zeros(mesh.n_nodes, dtype=bool)
@@ -322,11 +238,11 @@ class MDEMEngine:
         """The in-situ equilibrium at t = 0: drilled hole at the mud column, no fracture."""
         self._build()
         st = self._fresh_state()
-        # total stress of the in-situ state (for the realised sigma_h, see _realised)
+        # total stress of the in-situ state (for the realised sigma_h, see results.realised_truth)
         self._stress0 = self.cm.stress(st)
         self.stepper = CoupledStepper(self.cm, st, self.control)
         self._m_intact0 = self.cm.flow.cell_mass(st.flow)
-        self._h = min(1.0, self.scene.numerics.dt_max)
+        self._h = min(self.stepping.events.first_step, self.scene.numerics.dt_max)
         self._i_ph = 0
         self._in_phase = False
         self._drive: PhaseDrive = self._well.idle()
@@ -406,7 +322,8 @@ class MDEMEngine:
                              expected=exc.expected) from None
         self._targets = self._phase_targets(ph, t0)
         self._in_phase = True
-        self._h = min(max(self._h, 1e-3), self.scene.numerics.dt_max)
+        self._h = min(max(self._h, self.stepping.events.phase_start_step),
+                      self.scene.numerics.dt_max)
         self.events.append((t0, f"cycle {cyc}: {ph.label}"))
         for name, val in self._end_margins(st.p_w, self._v_in, self._v_ret).items():
             if val <= 0.0:
@@ -478,6 +395,7 @@ class MDEMEngine:
 
     def _trial(self) -> StepOutcome:
         num = self.scene.numerics
+        ev = self.stepping.events
         stp = self.stepper
         ctx = self._targets
         _, ph = self._plan[self._i_ph]
@@ -506,7 +424,8 @@ class MDEMEngine:
             # the pressure-change rule bounds the smooth change of p_w per step; a jump at
             # a cluster failure does not shrink with the step and is not cut for
             stp.state = old
-            self._h = max(h_try * 0.5 * float(num.dp_max) / abs(r.dp_w), num.dt_min)
+            self._h = max(h_try * ev.dp_fraction * float(num.dp_max) / abs(r.dp_w),
+                          num.dt_min)
             return self._outcome(False, t, "rejected: pressure change")
         why = self._reject_step(old, stp.state) if r.success and not at_floor else None
         if why:
@@ -532,11 +451,13 @@ class MDEMEngine:
         if hit and h_try > num.dt_min * (1.0 + 1e-9):
             name, g_new = min(hit.items(), key=lambda kv: kv[1])
             g_old = self._end_margins(old.p_w, self._v_in, self._v_ret)[name]
-            tol = (PRESSURE_EVENT_TOL if name != "volume" else VOLUME_EVENT_RTOL * vt)
+            tol = (ev.pressure_tol if name != "volume" else ev.volume_rtol * vt)
             tries = 0 if self._retry is None else self._retry["tries"]
-            if -g_new > tol and tries < 8 and g_old > 0:
+            if -g_new > tol and tries < ev.locate_tries and g_old > 0:
                 frac = g_old / (g_old - g_new)
-                h_new = max(h_try * min(max(frac, 0.05), 0.95) * (1 + 1e-3), num.dt_min)
+                lo, hi = ev.locate_clamp
+                h_new = max(h_try * min(max(frac, lo), hi) * (1 + ev.locate_overshoot),
+                            num.dt_min)
                 stp.state = old                      # undo; repeat the step shorter
                 self._retry = {"h": h_new, "tries": tries + 1}
                 return self._outcome(False, t, f"locating {name}")
@@ -544,7 +465,8 @@ class MDEMEngine:
         # a crack that reverses the open/closed change of the last step (opened then
         # closes, or the reverse) is resolved in time: the step is repeated shorter
         is_open = self._crack_open(new)
-        if self._open_hist is not None and h_try > num.dt_min * (1.0 + 1e-9):
+        if (ev.resolve_crack_reversals and self._open_hist is not None
+                and h_try > num.dt_min * (1.0 + 1e-9)):
             o1, d1 = self._open_hist
             d2 = is_open - o1
             if np.any((d1 != 0) & (d2 == -d1) & (o1 >= 0) & (new.cluster_state != 0)):
@@ -745,7 +667,7 @@ class MDEMEngine:
             raise RuntimeError("MDEMEngine.result() before the run is done")
         sc = self.scene
         rows = self.rows()
-        record = _make_record(sc, rows, self.events, self.column)
+        record = make_record(sc, rows, self.events, self.column)
         c = self.stepper.counters
         mb = rows["mass_balance_error"][1:]
         msg = (f"{sc.schedule.n_cycles} cycle(s), {c.steps} steps ({c.failed_steps} cut), "
@@ -772,109 +694,10 @@ class MDEMEngine:
             "linear_solve_time": c.linear_solve_time,
             "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
         }
-        realised = self._realised()
+        realised = realised_truth(self.cm, self.stepper.state, self._stress0, self._at_wall)
         if realised:
             truth["realised"] = realised
         return EngineResult(status=self.status, message=msg, record=record, truth=truth)
 
-    def _realised(self) -> dict[str, float]:
-        """What the model realised, where it differs from the scene's input.
-
-        All from the in-situ state (the drilled hole at the mud column, before pumping: far
-        field, Kirsch concentration as the mesh resolves it, finite domain) over the
-        clusters of the hole-connected crack at the end of the run, with the crack's
-        principal axis (:func:`~xlotkit.sim.coupling.geometry.fracture_summary`) as its
-        plane:
-
-        * ``sigma_h``, ``sigma_h_min``, ``sigma_h_max`` [Pa]: the total stress normal to the
-          crack's plane, area-weighted mean (and range) over the crack's clusters. This is
-          the stress the crack closes against; a closure pick is compared with it.
-        * ``sigma_H`` [Pa]: the total stress along the crack's plane, area-weighted over the
-          same clusters: the far-field stress parallel to the crack where the crack is (the
-          largest horizontal stress when the crack runs along sigma_H), with the hole's
-          radial-stress dip near the wall and the finite domain's disturbance. What
-          Eq. C.18/C.19 estimates is compared with it.
-        * ``tensile_strength`` [Pa]: the mean tensile strength of the crack's clusters at
-          the wall, where it started (the nominal strength, or the heterogeneous draw; the
-          crack-tip size scaling does not apply at the smooth wall). What T0 = FBP - Pr
-          estimates.
-        * ``wall_hoop_stress`` [Pa]: the total stress normal to the crack's plane in the
-          crack's wall clusters (mean), at the mud column ``initial_pressure``; the ideal
-          (Kirsch) wall value is ``3 sigma_h - sigma_H - p_mud``. A coarse wall resolves the
-          concentration only in a cluster average, which sets where the wall breaks down.
-        * ``fracture_azimuth_deg``, ``fracture_half_length`` [deg, m]: the crack's axis and
-          half its tip-to-tip length.
-        """
-        st = self.stepper.state
-        cs = st.cluster_state
-        cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR)
-        out: dict[str, float] = {}
-        if not cracked.any():
-            return out
-        connected, _, _ = crack_geometry(self.cm.mechanics, cs)
-        fs = fracture_summary(self.cm, st)
-        if connected.any() and math.isfinite(fs.azimuth_deg):
-            az = math.radians(fs.azimuth_deg)
-            tx, ty = math.cos(az), math.sin(az)
-            nx, ny = -ty, tx
-            s0 = self._stress0
-            sn = s0[:, 0] * nx * nx + s0[:, 1] * ny * ny + 2.0 * s0[:, 2] * nx * ny
-            sp = s0[:, 0] * tx * tx + s0[:, 1] * ty * ty + 2.0 * s0[:, 2] * tx * ty
-            w = np.asarray(self.cm.mesh.areas)[connected]
-            out["sigma_h"] = float(np.sum(w * sn[connected]) / np.sum(w))
-            out["sigma_h_min"] = float(np.min(sn[connected]))
-            out["sigma_h_max"] = float(np.max(sn[connected]))
-            out["sigma_H"] = float(np.sum(w * sp[connected]) / np.sum(w))
-            wall = connected & self._at_wall
-            if wall.any():
-                out["wall_hoop_stress"] = float(np.mean(sn[wall]))
-            out["fracture_azimuth_deg"] = float(fs.azimuth_deg)
-            out["fracture_half_length"] = 0.5 * float(fs.length)
-        sel = cracked & self._at_wall
-        if sel.any():
-            out["tensile_strength"] = float(np.mean(
-                np.asarray(self.cm.mechanics.tensile_strength)[sel]))
-        return out
-
-
 def _scalar(v: Any) -> Any:
     return v.item() if isinstance(v, np.ndarray) else v
-
-
-def _make_record(sc: Scene, rows: dict[str, np.ndarray], events, column: Column) -> Record:
-    """The clean record on the log grid: bottom-hole gauge pressure (latest state at or
-    before each sample, interpolated between steps), rates (of the step the sample falls
-    in), volumes, density, and surface/fracture pressure channels."""
-    dt = sc.output.log_interval
-    t_int = rows["t"]
-    n = int(math.floor(float(t_int[-1]) / dt + 1e-9)) + 1
-    t = np.arange(n) * dt
-    # rate of the step each sample lies in (a step's rate is constant over it)
-    j = np.clip(np.searchsorted(t_int, t, side="right"), 1, t_int.size - 1)
-
-    def at(name: str) -> np.ndarray:
-        return np.interp(t, t_int, rows[name])
-
-    rate = rows["pump_rate"][j] if t_int.size > 1 else np.zeros(n)
-    ret = rows["return_rate"][j] if t_int.size > 1 else np.zeros(n)
-    comp = sc.completion_model()
-    meta = {
-        "source": "xlotkit.sim.coupling.engine", "simulated": True, "model": "mdem",
-        "sigma_h": sc.stresses.sigma_h, "sigma_H": sc.stresses.sigma_H,
-        "pore_pressure": sc.stresses.pore_pressure,
-        "tensile_strength": sc.rock.tensile_strength,
-        "youngs_modulus": sc.rock.youngs_modulus, "poisson_ratio": sc.rock.poisson_ratio,
-        "tvd": column.tvd, "density": sc.fluid.density, "dt": dt,
-    }
-    return Record(
-        t=t, pressure=at("bottomhole_pressure"),
-        reference=PressureReference(kind="bottomhole", depth_m=comp.length_md, absolute=False),
-        start_time=sc.output.start_time, rate=rate, volume=at("pumped_volume"),
-        return_rate=ret, return_volume=at("returned_volume"),
-        density=np.full(n, float(sc.fluid.density)),
-        channels={"surface_pressure": at("surface_pressure"),
-                  "fracture_pressure": at("fracture_pressure"),
-                  "fracture_length": at("fracture_length"),
-                  "fracture_volume": at("fracture_volume"),
-                  "leakoff_volume": at("leakoff_volume")},
-        events=tuple(Event(t=float(te), text=str(x)) for te, x in events), meta=meta)
