@@ -7,7 +7,12 @@ function-level import is still a dependency). The rules:
   writes) imports nothing from ``xlotkit.sim`` or ``xlotkit.interpret``;
 * ``xlotkit.sim`` imports nothing from ``xlotkit.interpret`` (the simulator writes its log
   with the ground floor's writer);
-* configuration (``xlotkit.sim.scene``, the schedule) imports no engine module.
+* configuration (``xlotkit.sim.scene``, the schedule) imports no engine module;
+* the well (``xlotkit.sim.well``: completion, column, choke, drive) and the schedule import
+  no configuration or engine above them;
+* the model rooms (mesh, mechanics, flow) know nothing of scenes, the well or the engines;
+* an engine takes only the contract (``xlotkit.sim.run.contract``) from ``xlotkit.sim.run``
+  (the registry builds engines, the engines do not reach back into the driver).
 """
 
 from __future__ import annotations
@@ -92,16 +97,45 @@ def test_the_tree_has_the_layers_it_is_checked_for():
         assert mod in names, f"{mod} is not a module any more: update the layering rules"
 
 
+ENTRY_POINTS = ("xlotkit.cli", "xlotkit.pipeline", "xlotkit.library")
+
+
 def test_ground_floor_imports_nothing_from_sim_or_interpret():
-    assert _violations(GROUND, ("xlotkit.sim", "xlotkit.interpret")) == []
+    assert _violations(GROUND, ("xlotkit.sim", "xlotkit.interpret", *ENTRY_POINTS)) == []
 
 
 def test_sim_imports_nothing_from_interpret():
-    assert _violations(("xlotkit.sim",), ("xlotkit.interpret",)) == []
+    assert _violations(("xlotkit.sim",), ("xlotkit.interpret", *ENTRY_POINTS)) == []
+
+
+def test_interpret_imports_nothing_from_sim():
+    assert _violations(("xlotkit.interpret",), ("xlotkit.sim", *ENTRY_POINTS)) == []
 
 
 def test_configuration_imports_no_engine():
     assert _violations(CONFIGURATION, ENGINES) == []
+
+
+def test_well_and_schedule_sit_below_configuration():
+    assert _violations(("xlotkit.sim.well", "xlotkit.sim.schedule"),
+                       ("xlotkit.sim.scene", *ENGINES)) == []
+
+
+def test_model_rooms_know_nothing_of_scenes_wells_or_engines():
+    models = ("xlotkit.sim.mesh", "xlotkit.sim.mechanics", "xlotkit.sim.flow")
+    above = ("xlotkit.sim.scene", "xlotkit.sim.schedule", "xlotkit.sim.well",
+             "xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.wellcoupling",
+             "xlotkit.sim.run", "xlotkit.sim.output")
+    assert _violations(models, above) == []
+
+
+def test_engines_take_only_the_contract_from_run():
+    engines = ("xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.wellcoupling")
+    # a statement is reported by the first module it names: the contract module itself for
+    # ``from xlotkit.sim.run.contract import X``, xlotkit.sim.run for anything else
+    bad = [v for v in _violations(engines, ("xlotkit.sim.run",))
+           if not v.endswith("imports xlotkit.sim.run.contract")]
+    assert bad == []
 
 
 @pytest.mark.parametrize("source, forbidden, expect", [
