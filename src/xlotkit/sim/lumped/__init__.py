@@ -113,13 +113,21 @@ Layout of the package
 * :mod:`~xlotkit.sim.lumped.physics` -- the fracture and leak-off closed forms;
 * :mod:`~xlotkit.sim.lumped.solver` -- one step's solution and event location;
 * :mod:`~xlotkit.sim.lumped.engine` -- :class:`LumpedEngine` (the engine contract of
-  :mod:`xlotkit.sim.run`) and :func:`simulate_lumped`.
+  :mod:`xlotkit.sim.run`, its step rules in :class:`LumpedStepControl`) and
+  :func:`simulate_lumped`;
+* :mod:`~xlotkit.sim.lumped.results` -- the run's events and the clean record.
 
 Its configuration, :class:`LumpedScene` (and the older lumped file layout), is in
 :mod:`xlotkit.sim.scene.lumped`.
 """
 
-from xlotkit.sim.lumped.engine import LumpedEngine, LumpedResult, StepOutcome, simulate_lumped
+from xlotkit.sim.lumped.engine import (
+    LumpedEngine,
+    LumpedResult,
+    LumpedStepControl,
+    StepOutcome,
+    simulate_lumped,
+)
 from xlotkit.sim.lumped.physics import (
     breakdown_pressure,
     critical_net_pressure,
@@ -143,6 +151,7 @@ __all__ = [
     "LumpedEngine",
     "LumpedResult",
     "LumpedScene",
+    "LumpedStepControl",
     "StepOutcome",
     "breakdown_pressure",
     "critical_net_pressure",

@@ -7,18 +7,21 @@ import json
 import math
 import time as _time
 from collections.abc import Callable, Mapping
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from xlotkit.errors import InputError
-from xlotkit.record import Event, PressureReference, Record
+from xlotkit.record import Event
+from xlotkit.sim.lumped.results import RunLog, make_record
 from xlotkit.sim.lumped.solver import State, StepSolver, _event_value, _view, locate
 from xlotkit.sim.run.contract import EngineResult, StepCounters, StepOutcome, series_rows
 from xlotkit.sim.scene.lumped import LumpedScene
 from xlotkit.sim.well import WellDrive, phase_place
 
-__all__ = ["LumpedEngine", "LumpedResult", "StepOutcome", "simulate_lumped"]
+__all__ = ["LumpedEngine", "LumpedResult", "LumpedStepControl", "StepOutcome",
+           "simulate_lumped"]
 
 #: What a finished lumped run returns: the one result type of every engine.
 LumpedResult = EngineResult
@@ -89,6 +92,33 @@ def simulate_lumped(scene: LumpedScene, *,
 _STATE_FIELDS = tuple(f.name for f in dataclasses.fields(State))
 
 
+@dataclass(frozen=True)
+class LumpedStepControl:
+    """The lumped engine's step rules (the accuracy control itself is the scene's
+    ``dp_max``; steps never pass a log sample, a rate step or a phase end).
+
+    Attributes
+    ----------
+    cut : float
+        A trial whose well or fracture pressure changes by more than ``dp_max`` is repeated
+        ``cut`` times as long ...
+    min_cut_step : float
+        ... unless it is already this short [s] (then it is taken).
+    growth : float
+        After an accepted step the next may be ``growth`` times as long (up to the log
+        interval).
+    closure_band : float
+        Band [Pa] around ``sigma_h`` (and ``P_r``) taken as "at closure" / "at reopening"
+        when events are armed; also decides whether the wellbore reopening model seals a
+        closed fracture (``P_r`` measurably above ``sigma_h``).
+    """
+
+    cut: float = 0.5
+    min_cut_step: float = 1e-3
+    growth: float = 2.0
+    closure_band: float = 1e-3
+
+
 class LumpedEngine:
     """The lumped model as a stepwise engine (the :class:`xlotkit.sim.run.Engine` protocol).
 
@@ -105,11 +135,12 @@ class LumpedEngine:
 
     model = "lumped"
 
-    def __init__(self, scene: LumpedScene) -> None:
+    def __init__(self, scene: LumpedScene, control: LumpedStepControl | None = None) -> None:
         if not isinstance(scene, LumpedScene):
             raise InputError(f"not a LumpedScene: {scene!r}", key="scene",
                              expected="a xlotkit.sim.lumped.LumpedScene")
         self.sc = scene
+        self.control = LumpedStepControl() if control is None else control
         self._plan = scene.schedule.expanded()
         self._started = False
 
@@ -119,7 +150,7 @@ class LumpedEngine:
         sc = self.sc
         self._wall0 = _time.perf_counter()
         self._wall_before = 0.0
-        self.sim = sim = StepSolver(sc)
+        self.sim = sim = StepSolver(sc, closure_band=self.control.closure_band)
         self._well = WellDrive(sim.col)
         self._p_init = sc.p_initial
         ps0 = self._well.idle().surface(self._p_init)[0]
@@ -127,19 +158,8 @@ class LumpedEngine:
         sim.push(self.s)
         self._i_ph = 0
         self._in_phase = False
-        self.phases_out: list[dict[str, Any]] = []
-        self.events: list[Event] = []
-        self.closure_times: list[float] = []
-        self.reopening_times: list[float] = []
-        self.reopening_ps: list[float] = []
-        self.last_pump_p: dict[int, float] = {}
-        self.isip: dict[int, float] = {}
-        self.breakdown_time: float | None = None
-        self.initiation_time: float | None = None
-        self.initiation_p: float | None = None
-        self.fbp: float | None = None
-        self.status: Literal["ok", "stopped"] = "ok"
-        self.messages: list[str] = []
+        # what the run has met so far (the truth's events)
+        self.log = RunLog()
         # phase context (set by _begin_phase)
         self._t0 = self._v_in0 = self._v_ret0 = 0.0
         self._reason = ""
@@ -244,15 +264,15 @@ class LumpedEngine:
             "dt_adapt": self._dt_adapt, "n_loop": self._n_loop,
             "ctx": {"q_pump": self._q_pump, "zeta": self._drive.zeta,
                     "q_bleed": self._drive.phase.fixed_return_rate},
-            "phases_out": self.phases_out,
-            "events": [[e.t, e.text] for e in self.events],
-            "closure_times": self.closure_times, "reopening_times": self.reopening_times,
-            "reopening_ps": self.reopening_ps,
-            "last_pump_p": [[k, v] for k, v in self.last_pump_p.items()],
-            "isip": [[k, v] for k, v in self.isip.items()],
-            "breakdown_time": self.breakdown_time, "initiation_time": self.initiation_time,
-            "initiation_p": self.initiation_p, "fbp": self.fbp, "status": self.status,
-            "messages": self.messages,
+            "phases_out": self.log.phases_out,
+            "events": [[e.t, e.text] for e in self.log.events],
+            "closure_times": self.log.closure_times, "reopening_times": self.log.reopening_times,
+            "reopening_ps": self.log.reopening_ps,
+            "last_pump_p": [[k, v] for k, v in self.log.last_pump_p.items()],
+            "isip": [[k, v] for k, v in self.log.isip.items()],
+            "breakdown_time": self.log.breakdown_time, "initiation_time": self.log.initiation_time,
+            "initiation_p": self.log.initiation_p, "fbp": self.log.fbp, "status": self.log.status,
+            "messages": self.log.messages,
             "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
         }
         out["json"] = json.dumps(scal)
@@ -284,18 +304,18 @@ class LumpedEngine:
         self._t0, self._v_in0, self._v_ret0 = scal["t0"], scal["v_in0"], scal["v_ret0"]
         self._reason, self._dt_adapt = scal["reason"], scal["dt_adapt"]
         self._n_loop = int(scal["n_loop"])
-        self.phases_out = scal["phases_out"]
-        self.events = [Event(t=t, text=x) for t, x in scal["events"]]
-        self.closure_times = scal["closure_times"]
-        self.reopening_times = scal["reopening_times"]
-        self.reopening_ps = scal["reopening_ps"]
-        self.last_pump_p = {int(k): v for k, v in scal["last_pump_p"]}
-        self.isip = {int(k): v for k, v in scal["isip"]}
-        self.breakdown_time = scal["breakdown_time"]
-        self.initiation_time = scal["initiation_time"]
-        self.initiation_p = scal["initiation_p"]
-        self.fbp = scal["fbp"]
-        self.status, self.messages = scal["status"], scal["messages"]
+        self.log.phases_out = scal["phases_out"]
+        self.log.events = [Event(t=t, text=x) for t, x in scal["events"]]
+        self.log.closure_times = scal["closure_times"]
+        self.log.reopening_times = scal["reopening_times"]
+        self.log.reopening_ps = scal["reopening_ps"]
+        self.log.last_pump_p = {int(k): v for k, v in scal["last_pump_p"]}
+        self.log.isip = {int(k): v for k, v in scal["isip"]}
+        self.log.breakdown_time = scal["breakdown_time"]
+        self.log.initiation_time = scal["initiation_time"]
+        self.log.initiation_p = scal["initiation_p"]
+        self.log.fbp = scal["fbp"]
+        self.log.status, self.log.messages = scal["status"], scal["messages"]
         self._wall_before = float(scal["wall_time"])
         if self._in_phase:
             c = scal["ctx"]
@@ -336,7 +356,7 @@ class LumpedEngine:
         # The state's return rate belongs to the previous phase; restate it for this one
         # so the trapezoidal choke flux starts from the right value.
         s.ps, s.q_ret = self._drive.surface(s.p, self._q_pump)
-        self.events.append(Event(t=self._t0, text=f"cycle {cyc}: {ph.label}"))
+        self.log.events.append(Event(t=self._t0, text=f"cycle {cyc}: {ph.label}"))
         reason = ""
         # Already satisfied at the start?
         for name, fn in self._ends.items():
@@ -354,16 +374,16 @@ class LumpedEngine:
         cyc, ph = self._plan[i_ph]
         n_ph = len(self._plan)
         if reason == "limit":
-            self.status = "stopped"
-            self.messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit "
+            self.log.status = "stopped"
+            self.log.messages.append(f"phase {i_ph + 1} ({ph.label}, cycle {cyc}) hit "
                                  f"max_phase_duration {sc.max_phase_duration:g} s before its "
                                  f"end condition")
         if ph.pumps and i_ph + 1 < n_ph and not self._plan[i_ph + 1][1].pumps:
             # ISIP: the well pressure once the entry loss has gone, i.e. the fracture
             # pressure at shut-in (= the well pressure without entry loss or fracture).
-            self.isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
-            self.last_pump_p[cyc] = s.p
-        self.phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label,
+            self.log.isip[cyc] = s.pf if (s.broken and not s.sealed) else s.p
+            self.log.last_pump_p[cyc] = s.p
+        self.log.phases_out.append({"cycle": cyc, "kind": ph.kind, "name": ph.label,
                                 "t_start": self._t0, "t_end": s.t, "end": reason})
         self._i_ph += 1
         self._in_phase = False
@@ -373,6 +393,7 @@ class LumpedEngine:
     def _iterate(self) -> bool:
         """One pass of the adaptive loop; False if the trial step was rejected."""
         sc, sim, drive = self.sc, self.sim, self._drive
+        ctl = self.control
         s = self.s
         t_end = self._t_end
         dt_out = float(sc.dt)
@@ -388,8 +409,8 @@ class LumpedEngine:
             dt = t_break - s.t
         st = sim.solve(s, dt, drive, q_pump)
         if (not st.jump and max(abs(st.p - s.p), abs(st.pf - s.pf)) > sc.dp_max
-                and dt > 1e-3):
-            self._dt_adapt = 0.5 * dt
+                and dt > ctl.min_cut_step):
+            self._dt_adapt = ctl.cut * dt
             sim.n_rejected += 1
             return False
         # ---- events in this step: armed at the start, fired at the end
@@ -422,48 +443,48 @@ class LumpedEngine:
                 st = sim.solve(s, best_dt, drive, q_pump)
             hit = [n for n, fn in armed.items() if fn(_view(s, st), st.ps) <= 0.0]
             sim.n_events += len(hit)
-        if st.jump and self.fbp is None:   # an unstable jump not caught as an event
-            self.fbp, self.breakdown_time = s.p, s.t
+        if st.jump and self.log.fbp is None:   # an unstable jump not caught as an event
+            self.log.fbp, self.log.breakdown_time = s.p, s.t
         s = sim.accept(s, st, q_pump)
-        self._dt_adapt = min(dt_out, 2.0 * self._dt_adapt)
+        self._dt_adapt = min(dt_out, ctl.growth * self._dt_adapt)
         reason = self._reason
         for name in hit:
             if name == "closure":
                 # With the entry loss and reopening at sigma_h, a well a few Pa above
                 # sigma_h can refill a just-closed fracture for an instant; count one
                 # closure until a reopening has been recorded.
-                if len(self.closure_times) <= len(self.reopening_times):
-                    self.closure_times.append(s.t)
+                if len(self.log.closure_times) <= len(self.log.reopening_times):
+                    self.log.closure_times.append(s.t)
                 if sim.seal:
                     # The faces are in contact; the mouth now needs P_r to reopen.
                     s.sealed = True
                     s.pf = s.p
             elif name == "reopening":
-                self.reopening_times.append(s.t)
-                self.reopening_ps.append(s.p)
+                self.log.reopening_times.append(s.t)
+                self.log.reopening_ps.append(s.p)
             elif name == "reopening_wall":
                 # The wall lets go: the fracture, at its old size, meets net pressure
                 # P_r - sigma_h. A zero-length step redistributes the well's volume
                 # into it (at fixed L, or growing if K_I > K_Ic) -- the same
                 # volume-conserving jump as at breakdown.
-                self.reopening_times.append(s.t)
-                self.reopening_ps.append(s.p)
+                self.log.reopening_times.append(s.t)
+                self.log.reopening_ps.append(s.p)
                 s.sealed = False
                 s.pf = s.p
                 s = sim.accept(s, sim.solve(s, 0.0, drive, q_pump), q_pump)
             elif name == "breakdown":
                 # Hubbert-Willis initiation: the flaw becomes a fracture; it jumps at
                 # once if K_I(P_b, L_0) > K_Ic, else later ("unstable").
-                self.initiation_time, self.initiation_p = s.t, s.p
+                self.log.initiation_time, self.log.initiation_p = s.t, s.p
                 s.broken = True
                 s.L = sc.initial_flaw
                 st0 = sim.solve(s, 0.0, drive, q_pump)
-                if st0.jump and self.fbp is None:
-                    self.fbp, self.breakdown_time = s.p, s.t
+                if st0.jump and self.log.fbp is None:
+                    self.log.fbp, self.log.breakdown_time = s.p, s.t
                 s = sim.accept(s, st0, q_pump)
             elif name == "unstable":
-                if self.fbp is None:
-                    self.fbp, self.breakdown_time = s.p, s.t
+                if self.log.fbp is None:
+                    self.log.fbp, self.log.breakdown_time = s.p, s.t
                 s = sim.accept(s, sim.solve(s, 0.0, drive, q_pump, force_jump=True), q_pump)
             elif not reason:
                 reason = name
@@ -481,9 +502,9 @@ class LumpedEngine:
             raise RuntimeError("LumpedEngine.result() before the run is done")
         sc, sim = self.sc, self.sim
         p_init = self._p_init
-        status = self.status
+        status = self.log.status
         hist = {k: np.asarray(v, dtype=float) for k, v in sim.hist.items()}
-        record = _make_record(sc, sim, hist, self.events)
+        record = make_record(sc, sim.cw, sim.col.tvd, hist, self.log.events)
         v_leak = hist["v_carter"] + hist["v_wall"]
         resid_cum = (hist["v_in"] - hist["v_ret"] - sim.cw * (hist["p"] - p_init)
                      - hist["vf"] - v_leak)
@@ -493,19 +514,19 @@ class LumpedEngine:
             msg = (f"{sc.schedule.n_cycles} cycle(s), {sim.n_steps} steps, "
                    f"max step mass-balance error {mb.max() if mb.size else 0.0:.2e}")
         else:
-            msg = "; ".join(self.messages)
+            msg = "; ".join(self.log.messages)
         truth: dict[str, Any] = {
             "sigma_h": sc.sigma_h, "sigma_H": sc.sigma_H, "pore_pressure": sc.pore_pressure,
             "tensile_strength": sc.tensile_strength,
             "breakdown_pressure_model": sc.breakdown_pressure,
-            "fbp": self.fbp, "breakdown_time": self.breakdown_time,
-            "initiation_pressure": self.initiation_p, "initiation_time": self.initiation_time,
+            "fbp": self.log.fbp, "breakdown_time": self.log.breakdown_time,
+            "initiation_pressure": self.log.initiation_p, "initiation_time": self.log.initiation_time,
             "reopening_pressure_model": sim.pr, "reopening_model": sc.reopening,
-            "closure_times": list(self.closure_times),
-            "reopening_times": list(self.reopening_times),
-            "reopening_pressures": list(self.reopening_ps),
-            "isip": dict(self.isip), "last_pump_pressure": dict(self.last_pump_p),
-            "nwb_coefficient": sc.nwb_coefficient, "phases": list(self.phases_out),
+            "closure_times": list(self.log.closure_times),
+            "reopening_times": list(self.log.reopening_times),
+            "reopening_pressures": list(self.log.reopening_ps),
+            "isip": dict(self.log.isip), "last_pump_pressure": dict(self.log.last_pump_p),
+            "nwb_coefficient": sc.nwb_coefficient, "phases": list(self.log.phases_out),
             "well_compliance": sim.cw, "stable_length": sim.L_stab,
             "initial_pressure": p_init,
             "t": hist["t"], "pressure": hist["p"], "fracture_pressure": hist["pf"],
@@ -519,62 +540,6 @@ class LumpedEngine:
             "wall_time": self._wall_before + (_time.perf_counter() - self._wall0),
         }
         return EngineResult(status=status, message=msg, record=record, truth=truth)
-
-
-def _make_record(sc: LumpedScene, sim: StepSolver, hist: dict[str, np.ndarray],
-                 events: list[Event]) -> Record:
-    t_int = hist["t"]
-    t_end = float(t_int[-1])
-    n = int(math.floor(t_end / sc.dt + 1e-9)) + 1
-    t = np.arange(n) * sc.dt
-    # Latest internal state at or before each sample time (post-jump at a shared time).
-    idx = np.searchsorted(t_int, t + 1e-9, side="right") - 1
-    idx = np.clip(idx, 0, t_int.size - 1)
-    exact = np.abs(t_int[idx] - t) <= 1e-9
-
-    def at(name: str) -> np.ndarray:
-        v = hist[name]
-        out = np.interp(t, t_int, v)
-        out[exact] = v[idx[exact]]
-        return out
-
-    p = at("p")
-    ps = at("ps")
-    rate = hist["q_in"][idx].copy()
-    if rate.size and hist["q_in"].size > 1:
-        rate[0] = hist["q_in"][1]
-    ret = hist["q_ret"][idx]
-    rng = np.random.default_rng(sc.seed)
-    if sc.noise > 0.0:
-        p = p + rng.normal(0.0, sc.noise, size=p.size)
-        ps = ps + rng.normal(0.0, sc.noise, size=ps.size)
-    if sc.resolution > 0.0:
-        p = np.round(p / sc.resolution) * sc.resolution
-        ps = np.round(ps / sc.resolution) * sc.resolution
-    comp = sc.completion_used
-    meta = {
-        "source": "xlotkit.sim.lumped", "simulated": True,
-        "sigma_h": sc.sigma_h, "sigma_H": sc.sigma_H, "pore_pressure": sc.pore_pressure,
-        "tensile_strength": sc.tensile_strength,
-        "breakdown_pressure_model": sc.breakdown_pressure,
-        "reopening": sc.reopening, "reopening_pressure_model": sc.reopening_pressure,
-        "nwb_coefficient": sc.nwb_coefficient,
-        "youngs_modulus": sc.youngs_modulus, "poisson_ratio": sc.poisson_ratio,
-        "toughness": sc.toughness, "geometry": sc.geometry,
-        "leakoff_coefficient": sc.leakoff_coefficient, "well_compliance": sim.cw,
-        "tvd": sim.col.tvd, "density": sc.density, "noise": sc.noise,
-        "resolution": sc.resolution, "seed": int(sc.seed), "dt": sc.dt,
-    }
-    return Record(
-        t=t, pressure=p,
-        reference=PressureReference(kind="bottomhole", depth_m=comp.length_md, absolute=False),
-        start_time=sc.start_time, rate=rate, volume=at("v_in"), return_rate=ret,
-        return_volume=at("v_ret"), density=np.full(t.size, float(sc.density)),
-        channels={"surface_pressure": ps, "fracture_pressure": at("pf"),
-                  "fracture_length": at("L"),
-                  "fracture_volume": at("vf"),
-                  "leakoff_volume": at("v_carter") + at("v_wall")},
-        events=tuple(events), meta=meta)
 
 
 def _scalar(v: Any) -> Any:

@@ -74,7 +74,7 @@ class StepSolver:
     HIST_KEYS = ("t", "p", "pf", "L", "vf", "v_in", "v_ret", "v_carter", "v_wall", "ps",
                  "q_in", "q_ret")
 
-    def __init__(self, scene: LumpedScene):
+    def __init__(self, scene: LumpedScene, closure_band: float = 1e-3):
         self.sc = scene
         self.cw = scene.c_well
         self.col = scene.column
@@ -90,7 +90,7 @@ class StepSolver:
         self.p0 = scene.pore_pressure
         self.CL = scene.leakoff_coefficient
         self.L_stab = stable_length(self.cw, self.geo, self.ep, self.h)
-        self.tol_p = 1e-3  # [Pa] band around sigma_h treated as "at closure"
+        self.tol_p = closure_band  # [Pa] band around sigma_h treated as "at closure"
         # Seal closed fractures only when P_r is measurably above sigma_h; otherwise the
         # wellbore model is the sigma_h model.
         self.seal = self.pr > self.sh + self.tol_p
