@@ -16,7 +16,8 @@ import numpy as np
 
 from xlotkit.errors import InputError
 
-__all__ = ["GRAVITY", "ParsedUnit", "from_si", "parse_unit", "registry", "to_si"]
+__all__ = ["FIELD_UNITS", "GRAVITY", "ParsedUnit", "field_unit_kind", "from_si", "parse_unit",
+           "registry", "same_unit", "to_si"]
 
 #: Standard gravity [m/s^2] (the one definition: the well model and the stress
 #: conversions must use the same hydrostatic gradient).
@@ -81,11 +82,92 @@ _ALIASES = {
     "g/cm3": "g/cm**3",
     "m": "meter",
     "ft": "foot",
+    # pressure units of the field (technical atmosphere = kgf/cm2)
+    "atm": "atmosphere",
+    "at": "technical_atmosphere",
+    "ata": "technical_atmosphere",
+    "atü": "technical_atmosphere",
+    "kgf/cm2": "kilogram_force/centimeter**2",
+    "kgf/cm²": "kilogram_force/centimeter**2",
+    "kg/cm2": "kilogram_force/centimeter**2",
+    "kg/cm²": "kilogram_force/centimeter**2",
+    "kgf/cm^2": "kilogram_force/centimeter**2",
+    "mbar": "millibar",
+    "hpa": "hectopascal",
+    "gpa": "gigapascal",
+    "ksi": "ksi",
+    "psi": "psi",
+    "bar": "bar",
+    "pascal": "Pa",
+    # rates
+    "m3/d": "m**3/day",
+    "m³/min": "m**3/min",
+    "m³/h": "m**3/hour",
+    "m³/s": "m**3/s",
+    "m^3/min": "m**3/min",
+    "m^3/h": "m**3/hour",
+    "l/mn": "liter/minute",
+    "l/h": "liter/hour",
+    "lps": "liter/second",
+    "gal/min": "gallon/minute",
+    "usgpm": "gallon/minute",
+    "bbl/d": "oil_barrel/day",
+    "bpd": "oil_barrel/day",
+    "bbl/h": "oil_barrel/hour",
+    "bbls": "oil_barrel",
+    "bbl/m": "oil_barrel/minute",
+    "gallons": "gallon",
+    "usgal": "gallon",
+    "dm3": "liter",
+    "litres": "liter",
+    "liters/min": "liter/minute",
+    "litres/min": "liter/minute",
+    # time
+    "hour": "hour",
+    "minute": "minute",
+    "second": "second",
+    "d": "day",
+    "day": "day",
+    "days": "day",
+    "ms": "millisecond",
 }
 
+#: Units the field writes, by kind: the only spellings a reader accepts as the last word of a
+#: header (``Pressure psi``), where a pint unit such as ``P`` (poise) or ``at`` could
+#: otherwise be mistaken for part of a name. Lower case, after absolute/gauge markers are
+#: removed.
+FIELD_UNITS = {
+    "pressure": ("pa", "kpa", "mpa", "gpa", "hpa", "bar", "bars", "bara", "barg", "mbar", "psi",
+                 "psia", "psig", "ksi", "atm", "at", "ata", "kgf/cm2", "kgf/cm²", "kg/cm2",
+                 "kg/cm²", "kgf/cm^2"),
+    "rate": ("bpm", "bbl/min", "bbl/m", "l/min", "lpm", "l/s", "lps", "l/h", "m3/min", "m3/h",
+             "m3/hr", "m3/s", "m3/d", "m³/min", "m³/h", "m³/s", "m^3/min", "m^3/h", "gpm",
+             "gal/min", "usgpm", "bpd", "bbl/d", "bbl/h", "l/mn"),
+    "volume": ("m3", "m^3", "m³", "l", "liters", "litres", "litre", "bbl", "bbls", "gal",
+               "gallons", "usgal", "dm3"),
+    "time": ("s", "sec", "secs", "seconds", "min", "mins", "minutes", "h", "hr", "hrs",
+             "hours", "d", "day", "days", "ms"),
+    "temperature": ("°c", "ºc", "degc", "deg c", "°f", "degf", "k"),
+    "density": ("sg", "sgu", "s.g.", "ppg", "lb/gal", "kg/m3", "g/cc", "g/cm3"),
+}
+_FIELD_UNIT_KIND = {u: k for k, us in FIELD_UNITS.items() for u in us}
+
+
+def field_unit_kind(text: str) -> str | None:
+    """The kind (``"pressure"``, ``"rate"``, ...) of a unit the field writes, else None.
+
+    ``text`` may carry an absolute/gauge marker (``psi absolute``, ``bar(g)``, ``psia``).
+    Only spellings in :data:`FIELD_UNITS` count: this decides whether the last word of a
+    header is a unit.
+    """
+    s = re.sub(r"\((a|g|abs|gauge)\)\s*[\])]?$", "", text.strip().lower()).strip()
+    s = s.strip("[]()").strip()
+    s = re.sub(r"\b(absolute|abs|gauge|gage)\b", "", s).strip()
+    return _FIELD_UNIT_KIND.get(s)
+
 # Markers of absolute / gauge pressure written next to the unit.
-_ABS_RE = re.compile(r"\b(absolute|abs)\b|^(psia|bara)$", re.IGNORECASE)
-_GAUGE_RE = re.compile(r"\b(gauge|gage|g)\b|^(psig|barg)$", re.IGNORECASE)
+_ABS_RE = re.compile(r"\b(absolute|abs)\b|^(psia|bara|ata)$", re.IGNORECASE)
+_GAUGE_RE = re.compile(r"\b(gauge|gage|g)\b|^(psig|barg|atü)$", re.IGNORECASE)
 
 
 @lru_cache(maxsize=1)
@@ -168,10 +250,14 @@ def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
     InputError
         If pint cannot interpret the unit.
     """
-    import pint
 
     raw = text
-    s = text.strip().strip("[]()").strip()
+    s = text.strip()
+    m = re.match(r"^[\[(]?\s*(.*?)\s*\((a|g|abs|gauge)\)\s*[\])]?$", s, re.IGNORECASE)
+    if m:                      # "psi(a)", "bar (g)", "[psi(g)]"
+        s = m.group(1).strip() + (" absolute" if m.group(2).lower() in ("a", "abs") else
+                                  " gauge")
+    s = s.strip("[]()").strip()
     absolute: bool | None = None
     if _ABS_RE.search(s):
         absolute = True
@@ -184,8 +270,7 @@ def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
     expr = _ALIASES.get(low, s)
     try:
         registry().Unit(expr)
-    except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError, ValueError,
-            AttributeError, TypeError, AssertionError) as exc:
+    except Exception as exc:  # noqa: BLE001 -- pint raises many kinds (TokenError, ...) on garbage
         raise InputError(f"unit {raw!r} is not understood ({exc.__class__.__name__})",
                          file=file, line=line, key=key,
                          expected="a unit such as bar, psi, MPa, l/min, bpm, m3, sg, degC") from None
@@ -219,3 +304,26 @@ def from_si(values, unit: str | ParsedUnit) -> np.ndarray:
     base = ureg.Quantity(1.0, pu.expr).to_base_units().units
     q = ureg.Quantity(np.asarray(values, dtype=float), base)
     return np.asarray(q.to(pu.expr).magnitude, dtype=float)
+
+
+@lru_cache(maxsize=256)
+def _si_affine(expr: str) -> tuple[float, float]:
+    """``(scale, offset)`` with ``SI = scale * value + offset`` for a pint expression."""
+    ureg = registry()
+    zero = float(ureg.Quantity(0.0, expr).to_base_units().magnitude)
+    one = float(ureg.Quantity(1.0, expr).to_base_units().magnitude)
+    return one - zero, zero
+
+
+def same_unit(a: ParsedUnit, b: ParsedUnit) -> bool:
+    """Whether two spellings mean the same unit (same conversion to SI, same abs/gauge mark).
+
+    An unmarked pressure agrees with a marked one (``psi`` and ``psi absolute``).
+    """
+    if a.dimensionality != b.dimensionality:
+        return False
+    sa, oa = _si_affine(a.expr)
+    sb, ob = _si_affine(b.expr)
+    if abs(sa - sb) > 1e-12 * max(abs(sa), abs(sb)) or abs(oa - ob) > 1e-9 * max(1.0, abs(oa)):
+        return False
+    return a.absolute is None or b.absolute is None or a.absolute == b.absolute
