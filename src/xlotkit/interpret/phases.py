@@ -373,12 +373,20 @@ def _base_pressure(t: np.ndarray, p: np.ndarray, opt: SegmentOptions) -> float:
     histogram of time spent per ``idle_band / 2`` bin is scanned from the bottom; brief
     excursions below it (gauge run in or pulled out) do not count.
     """
+    ok = np.isfinite(p)
+    if not ok.all():
+        t, p = t[ok], p[ok]
     if p.size < 3:
         return float(np.min(p)) if p.size else 0.0
     width = opt.idle_band / 2.0
     lo, hi = float(np.min(p)), float(np.max(p))
     if hi - lo < width:
         return float(np.median(p))
+    # Never more bins than the record could fill: a wild value (a 1e12 bar cell) must not
+    # make the histogram allocate terabytes; bins then widen relative to the record.
+    n_max = 20 * p.size + 1000
+    if (hi - lo) / width > n_max:
+        width = (hi - lo) / n_max
     edges = np.arange(lo, hi + width, width)
     w = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
     dwell, _ = np.histogram(p, bins=edges, weights=w)
