@@ -209,6 +209,8 @@ def _unit_of(tab: Table, j: int, field: str, opts: ReadOptions) -> tuple[str, st
             agree = same_unit(a, b)
         except InputError:
             agree = hu.strip().lower() == ru.strip().lower()
+        if agree and a.absolute is None and b.absolute is not None:
+            return ru, f"units row line {tab.units_line}"   # the one that says abs/gauge
         if not agree:
             raise InputError(
                 f"column {name!r}: the header (line {tab.header_line}) says {hu!r} but the "

@@ -148,8 +148,7 @@ def split_name_unit(title: str) -> tuple[str, str]:
     if m and _unit_like(m.group("unit")) and m.group("unit").strip():
         return m.group("name").strip(), m.group("unit").strip()
     parts = t.rsplit(None, 1)
-    if len(parts) == 2 and field_unit_kind(parts[1]) is not None and not parts[0].endswith(
-            ("in", "out")):
+    if len(parts) == 2 and field_unit_kind(parts[1]) is not None:
         return parts[0].strip(), parts[1].strip()
     # "Pressure psi absolute", "Pressure psi(a)"
     m = re.match(r"^(?P<name>.+?)\s+(?P<unit>\S+\s+(absolute|abs|gauge))$", t, re.IGNORECASE)
@@ -284,6 +283,13 @@ def sniff_rows(rows: Sequence[Sequence[str]], raws: Sequence[str], lines: Sequen
                 break
             b = nxt[1]
             to_end = not complete and b >= n - 2
+    # trailing columns left empty in every row (a "Note" or "Comment" column): the rows
+    # still have the cells, so the header's width holds
+    if header is not None:
+        hw = len(_trim(rows[header]))
+        raw_w = max(len(rows[k]) for k in range(a, b) if flags[k] == "data")
+        if width < hw <= raw_w:
+            width = hw
     # preamble: everything above the header
     top = header if header is not None else a
     preamble: dict[str, str] = {}

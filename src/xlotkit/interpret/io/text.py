@@ -154,6 +154,11 @@ def read_text_table(path: Path, label: str, *, decimal: str | None = None) -> Ta
     canonical = any(x.startswith("# xlotkit-log:") for x in lines[:3])
     sep = "," if canonical else _choose_sep(lines)
     rows = [split_line(x, sep) if x.strip() else [] for x in lines]
+    if sep == " ":
+        # whitespace-separated: titles may hold single spaces ("WHP psig"), columns are
+        # apart by two or more
+        rows = [r if not r or is_data(r) else re.split(r"\s{2,}|\t", x.strip())
+                for r, x in zip(rows, lines)]
     numbers = list(range(1, len(lines) + 1))
     lay = sniff_rows(rows, lines, numbers, label=label, complete=complete)
     first_data = lay.data_start + 1            # 1-based line
