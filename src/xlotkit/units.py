@@ -232,6 +232,21 @@ class ParsedUnit:
 
 def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
                key: str | None = None) -> ParsedUnit:
+    """Understand a unit as written in a log (see :func:`_parse_unit`); cached."""
+    try:
+        return _parse_unit_cached(text)
+    except InputError as exc:
+        raise InputError(exc.message, file=file, line=line, key=key,
+                         expected=exc.expected) from None
+
+
+@lru_cache(maxsize=512)
+def _parse_unit_cached(text: str) -> ParsedUnit:
+    return _parse_unit(text)
+
+
+def _parse_unit(text: str, *, file: str | None = None, line: int | None = None,
+                key: str | None = None) -> ParsedUnit:
     """Understand a unit as written in a log.
 
     Parameters
@@ -293,8 +308,10 @@ def to_si(values, unit: str | ParsedUnit) -> np.ndarray:
         Values in SI (Pa, m^3/s, m^3, kg/m^3, K, s, m).
     """
     pu = unit if isinstance(unit, ParsedUnit) else parse_unit(unit)
-    q = registry().Quantity(np.asarray(values, dtype=float), pu.expr)
-    return np.asarray(q.to_base_units().magnitude, dtype=float)
+    scale, offset = _si_affine(pu.expr)
+    v = np.asarray(values, dtype=float)
+    # the factors are pint's (cached per unit): SI = scale * value + offset
+    return v * scale + offset if offset else v * scale
 
 
 def from_si(values, unit: str | ParsedUnit) -> np.ndarray:

@@ -361,15 +361,19 @@ def _make_continuous(v: np.ndarray) -> tuple[np.ndarray, list[int]]:
 
 # ====================================================================== helpers
 def _text(series: pd.Series) -> pd.Series:
+    """The cells as stripped text, ``""`` where blank."""
     if series.dtype.kind in "fiub":
         return series.astype(object).where(series.notna(), "").astype(str)
-    return series.astype(object).where(series.notna(), "").astype(str).str.strip()
+    s = series.fillna("")
+    if s.dtype == object:
+        s = s.astype(str)
+    return s.str.strip()
 
 
 def _empty(series: pd.Series) -> np.ndarray:
     if series.dtype.kind in "fiub":
         return series.isna().to_numpy()
-    return (_text(series) == "").to_numpy()
+    return (series.isna() | (_text(series) == "")).to_numpy()
 
 
 def _repeated_headers(tab: Table) -> int:
@@ -377,10 +381,14 @@ def _repeated_headers(tab: Table) -> int:
     one); returns the number of header blocks."""
     if all(s.dtype.kind in "fiub" for s in tab.data) or not tab.titles:
         return 1
+    if tab.data[0].dtype.kind in "fiub":
+        return 1
     titles = [norm_name(t) for t in tab.titles]
     tset = sorted(titles)
-    first = _text(tab.data[0]).map(norm_name)
-    cand = np.flatnonzero(first.isin(set(titles)).to_numpy())
+    # a repeated header writes its titles as the first one did
+    raw = {t.strip() for t in tab.titles} | {t.strip().lower() for t in tab.titles}
+    c0 = _text(tab.data[0])
+    cand = np.flatnonzero((c0.isin(raw) | c0.str.lower().isin(raw)).to_numpy())
     if cand.size == 0:
         return 1
     n = len(tab.lines)
