@@ -57,7 +57,7 @@ def _fmt_elapsed(seconds: float) -> str:
 def _bar(pa: float) -> float:
     from xlotkit.units import from_si
 
-    return float(from_si([pa], "bar")[0])
+    return float(from_si([pa], "bar", fast=True)[0])     # shown rounded
 
 
 _READER_HELP = {

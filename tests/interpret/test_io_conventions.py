@@ -295,3 +295,19 @@ def test_read_logs_column_choice_needs_to_fit_one_file(truth):
         read_logs([a, b], columns={"pressure": "WHP"})
     with pytest.raises(InputError, match="no such column in any"):
         read_logs([a, b], columns={"pressure": "Nope"})
+
+
+# ---------------------------------------------------------------------------- speed helpers
+def test_running_median_is_scipys_median_filter():
+    # phases._median went from scipy.ndimage to pandas' rolling median for the reader's
+    # speed target (issue 15); the numbers must not change
+    from scipy.ndimage import median_filter
+
+    from xlotkit.interpret.phases import _median
+
+    rng = np.random.default_rng(0)
+    for n in (1, 3, 5, 31, 61):
+        for size in (1, 2, 5, 50, 5000):
+            x = np.round(rng.normal(0, 1, size) * 1e5) / 7
+            np.testing.assert_array_equal(_median(x, n), median_filter(x, size=n,
+                                                                       mode="nearest"))

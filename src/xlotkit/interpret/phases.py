@@ -329,11 +329,21 @@ def _window(t: np.ndarray, seconds: float) -> int:
 
 
 def _median(x: np.ndarray, n: int) -> np.ndarray:
+    """Running median over ``n`` samples (odd), edges padded with the end values.
+
+    The same numbers as ``scipy.ndimage.median_filter(x, size=n, mode="nearest")``
+    (``tests/interpret/test_io_conventions.py`` checks it), through pandas' rolling median,
+    which is already imported by the reader; importing ``scipy.ndimage`` alone costs about a
+    third of a second per command.
+    """
     if n <= 1:
         return x.copy()
-    from scipy.ndimage import median_filter
+    import pandas as pd
 
-    return median_filter(x, size=n, mode="nearest")
+    h = n // 2
+    padded = np.concatenate([np.full(h, x[0]), x, np.full(h, x[-1])])
+    med = pd.Series(padded).rolling(n, center=True, min_periods=1).median().to_numpy()
+    return med[h:h + x.size]
 
 
 def _slope(t: np.ndarray, y: np.ndarray, half: int) -> np.ndarray:

@@ -62,6 +62,8 @@ _DENSITY_RANGE = (0.0, 5000.0)
 _TIME_KINDS = ("time", "timestamp", "date", "clock")
 _IMPLIED_TIME_UNIT = {"seconds": "s", "elapsed seconds": "s", "minutes": "min", "hours": "h",
                       "sec": "s", "secs": "s", "min": "min", "mins": "min", "hrs": "h"}
+# anything a number could be written as (remarks are the cells that are none of these)
+_NUMBER_LIKE = (r"^\s*[-+]?(\d[\d.,']*|[.,]\d+)([eE][-+]?\d+)?\s*$|^\s*[-+]?(inf|infinity|nan)\s*$")
 _REMARK_NAMES = {"comment", "comments", "remark", "remarks", "note", "notes", "event",
                  "events", "bemerkung", "opmerking", "description", "activity", "stage",
                  "operation", "status", "message"}
@@ -625,9 +627,9 @@ def assemble(tab: Table, opts: ReadOptions, *, reference: PressureReference | No
         j0 = value_cols[0]
         txt = _text(tab.data[j0])
         low = txt.str.lower()
-        numeric = pd.to_numeric(txt.str.replace(",", ".", regex=False), errors="coerce").notna()
+        numeric = txt.str.match(_NUMBER_LIKE)
         is_text = ((txt != "") & ~numeric & ~low.isin(MISSING_MARKERS)).to_numpy()
-        if is_text.any():
+        if is_text.any() and len(value_cols) >= 2:
             rest = [_empty(tab.data[j]) for j in value_cols[1:] if fields[j] != "remarks"]
             others_empty = np.logical_and.reduce(rest) if rest else np.ones(n_all, bool)
             remark = is_text & others_empty

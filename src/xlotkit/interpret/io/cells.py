@@ -117,7 +117,8 @@ def numbers(series: pd.Series, *, lines: np.ndarray, label: str, name: str,
         if has_comma.any():
             comma_cells = txt[txt.str.contains(",", regex=False)]
             thou_ok = bool(comma_cells.str.match(NUM_THOUSANDS_COMMA.pattern).all())
-            dec_ok = bool(comma_cells.str.match(NUM_COMMA.pattern).all())
+            dec_ok = bool((comma_cells.str.match(NUM_COMMA.pattern)
+                           | comma_cells.str.match(NUM_THOUSANDS_POINT.pattern)).all())
             plain = num[~bad & ~missing]
             if thou_ok and dec_ok:
                 if decimal == ".":

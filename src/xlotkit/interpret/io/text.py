@@ -121,10 +121,31 @@ def _tail_trailer(path: Path, size: int, enc: str, sep: str, width: int) -> tupl
             after.append(x)
             continue
         cells = split_line(x, sep)
-        if is_data(cells) and len([c for c in cells]) >= min(width, 2):
+        if is_data(cells) and len(cells) >= width:
             break
         after.append(x)
     return len(after), [x for x in reversed(after) if x.strip()]
+
+
+def _sniff(lines: list[str], canonical: bool, label: str, complete: bool
+           ) -> tuple[str, list[list[str]], Layout]:
+    sep = "," if canonical else _choose_sep(lines)
+    rows = [split_line(x, sep) if x.strip() else [] for x in lines]
+    if sep == " ":
+        # whitespace-separated: titles may hold single spaces ("WHP psig") when columns are
+        # apart by two or more; otherwise every word is a title ("Time(s) P(psi)")
+        widths = [len(r) for r in rows if r and is_data(r)]
+        w = max(set(widths), key=widths.count) if widths else 0
+        split_rows = []
+        for r, x in zip(rows, lines):
+            if not r or is_data(r):
+                split_rows.append(r)
+                continue
+            wide = re.split(r"\s{2,}|\t", x.strip())
+            split_rows.append(r if len(r) == w and len(wide) != w else wide)
+        rows = split_rows
+    numbers = list(range(1, len(lines) + 1))
+    return sep, rows, sniff_rows(rows, lines, numbers, label=label, complete=complete)
 
 
 def read_text_table(path: Path, label: str, *, decimal: str | None = None) -> Table:
@@ -152,18 +173,27 @@ def read_text_table(path: Path, label: str, *, decimal: str | None = None) -> Ta
     if complete and lines and lines[-1] == "":
         lines = lines[:-1]
     canonical = any(x.startswith("# xlotkit-log:") for x in lines[:3])
-    sep = "," if canonical else _choose_sep(lines)
-    rows = [split_line(x, sep) if x.strip() else [] for x in lines]
-    if sep == " ":
-        # whitespace-separated: titles may hold single spaces ("WHP psig"), columns are
-        # apart by two or more
-        rows = [r if not r or is_data(r) else re.split(r"\s{2,}|\t", x.strip())
-                for r, x in zip(rows, lines)]
-    numbers = list(range(1, len(lines) + 1))
-    lay = sniff_rows(rows, lines, numbers, label=label, complete=complete)
+    # sniff on the first few hundred lines; more only when the preamble is longer
+    limit = 400
+    while True:
+        part = lines[:limit]
+        part_complete = complete and limit >= len(lines)
+        try:
+            sep, rows, lay = _sniff(part, canonical, label, part_complete)
+        except InputError:
+            if limit >= len(lines):
+                raise
+            limit *= 4
+            continue
+        if (lay.data_end - lay.data_start >= 3 or limit >= len(lines)) and (
+                not lay.to_end or lay.data_end - lay.data_start >= 3):
+            break
+        limit *= 4
+    complete = part_complete
+    lines = part
     first_data = lay.data_start + 1            # 1-based line
     data_rows = [rows[k] for k in range(lay.data_start, lay.data_end)]
-    dec = decimal or sample_decimal(data_rows, sep)
+    dec = decimal or sample_decimal(data_rows[:200], sep)
     # where the data end
     nrows = None
     trailer = list(lay.trailer)
