@@ -268,6 +268,19 @@ def _kind_of(field: str, pu: ParsedUnit | None) -> str | None:
 def _impossible(si: np.ndarray, kind: str | None, field: str, absolute: bool | None
                 ) -> tuple[np.ndarray, str]:
     """Mask of values impossible for their kind, and why."""
+    if si.size:
+        # fast path: the extremes (NaN ignored) tell whether any cell can be out of range
+        lo, hi = float(np.fmin.reduce(si)), float(np.fmax.reduce(si))
+        floor = {"pressure": (-0.05 * _BAR if absolute else -ATMOSPHERE_PA - 0.5 * _BAR)
+                 if field in ("pressure", "surface_pressure") else -_LIMITS["pressure"],
+                 "temperature": _TEMP_RANGE[0], "density": _DENSITY_RANGE[0]}.get(
+            kind, -_LIMITS.get(kind, np.inf))
+        ceil = {"temperature": _TEMP_RANGE[1], "density": _DENSITY_RANGE[1]}.get(
+            kind, _LIMITS.get(kind, np.inf))
+        if (np.isnan(lo) or (lo >= floor and hi <= ceil)) and np.isfinite(lo if not
+                                                                            np.isnan(lo) else 0) \
+                and np.isfinite(hi if not np.isnan(hi) else 0):
+            return np.zeros(si.size, bool), ""
     bad = np.isinf(si)
     why = "not finite"
     with np.errstate(invalid="ignore"):
@@ -345,6 +358,8 @@ def _make_continuous(v: np.ndarray) -> tuple[np.ndarray, list[int]]:
     if v.size < 2:
         return v, []
     d = np.diff(v)
+    if not float(np.fmin.reduce(d)) < 0:      # never falls (or all NaN): nothing to do
+        return v, []
     steps = np.abs(d[np.isfinite(d) & (d != 0)])
     res = float(steps.min()) if steps.size else 0.0
     prev, cur = v[:-1], v[1:]
