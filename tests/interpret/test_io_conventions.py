@@ -188,6 +188,24 @@ def test_thousands_separators_decided_from_the_column(truth):
     assert any("thousands" in n for n in r.meta["notes"])
 
 
+def test_stimulation_logs_units_row_clock_thousands(truth):
+    tr = truth["stim_units_row.txt"]
+    r = read_log(FIX / "stim_units_row.txt")
+    _close(r.t, tr["t"])
+    _close(r.pressure, tr["pressure"])
+    _close(r.volume, tr["volume"])
+    _close(r.rate, tr["rate"])
+    assert r.meta["start_clock"] == tr["start_clock"] and r.start_time is None
+    assert r.meta["preamble"]["Company"] == "ACME Frac"
+    assert "Stage 3 treatment log" in r.meta["comments"]
+    tr = truth["stim_quoted.csv"]
+    r = read_log(FIX / "stim_quoted.csv")
+    _close(r.t, tr["t"])
+    _close(r.pressure, tr["pressure"])                 # the bottom-hole one
+    _close(r.channels["surface_pressure"], tr["surface_pressure"])
+    assert r.start_time == tr["start_time"] and r.reference.kind == "downhole"
+
+
 def test_three_digit_commas_alone_are_asked_for(tmp_path):
     p = tmp_path / "amb.txt"
     p.write_text("Time (s)\tPressure (psi)\n0\t3,431\n1\t3,502\n")

@@ -365,9 +365,40 @@ def workbooks() -> None:
                           "rate": q / 1000 / MIN}
 
 
+def stimulation_logs() -> None:
+    """Two stimulation-log shapes: a tab file with a title line, a units row that also holds
+    a unit the reader does not use (``ppa``), clock times crossing midnight and thousands
+    separators; and a quoted comma CSV with ``M/D/YYYY`` dates and times in two columns, a
+    units row, quoted thousands, and a bottom-hole beside the treating pressure."""
+    k = np.arange(30)
+    whp = 5000 + 37 * k
+    vol = np.round(1000 + 1.3 * k, 1)
+    lines = ["Stage 3 treatment log", "Company: ACME Frac", "",
+             "Time\tWHP\tRate\tProp Conc\tTotal Volume", "hh:mm:ss\tpsi\tbpm\tppa\tbbl"]
+    for i in k:
+        s_ = (23 * 3600 + 59 * 60 + 10 + int(i) * 4) % 86400
+        lines.append(f"{s_ // 3600:02d}:{s_ % 3600 // 60:02d}:{s_ % 60:02d}\t{whp[i]:,}\t40.5\t"
+                     f"0.50\t{vol[i]:,.1f}")
+    _write("stim_units_row.txt", "\n".join(lines) + "\n")
+    TRUTH["stim_units_row.txt"] = {"t": k * 4.0, "pressure": whp * PSI, "volume": vol * BBL,
+                                   "rate": np.full(k.size, 40.5 * BBL / MIN),
+                                   "start_clock": "23:59:10"}
+    t0 = datetime(2022, 4, 5, 23, 59, 0)
+    tp = 3000 + 3 * k
+    lines = ['"Date","Time","Treating Pressure","Slurry Rate","Bottomhole Pressure"',
+             '"","","psi","bpm","psi"']
+    for i in k:
+        ts = t0 + timedelta(seconds=int(i) * 5)
+        lines.append(f'"{ts.month}/{ts.day}/{ts.year}","{ts.hour}:{ts:%M:%S}","{tp[i]:,}",'
+                     f'"12.5","{tp[i] + 4500:,}"')
+    _write("stim_quoted.csv", "\n".join(lines) + "\n")
+    TRUTH["stim_quoted.csv"] = {"t": k * 5.0, "pressure": (tp + 4500) * PSI,
+                                "surface_pressure": tp * PSI, "start_time": t0}
+
+
 ALL = (dfit_save_file, quoted_comma_header, name_comma_unit_tab, name_space_unit,
        units_row_and_no_units, synonyms_pair, non_english, clock_midnight, datetime_orders,
-       thousands_tab, blanks_trailing, impossible_cell, remarks_column, workbooks)
+       thousands_tab, stimulation_logs, blanks_trailing, impossible_cell, remarks_column, workbooks)
 
 
 def build(only_text: bool = False) -> None:

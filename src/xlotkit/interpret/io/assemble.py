@@ -79,7 +79,8 @@ def _fuzzy(name: str) -> str | None:
             return "channel:return_pressure"
         if words & {"annulus", "ann", "casing", "csg", "backside"}:
             return "channel:annulus_pressure"
-        if words & {"bh", "bottomhole", "downhole", "dh", "bottom", "bhp", "gauge"}:
+        if words & {"bh", "bottomhole", "downhole", "dh", "bottom", "bhp", "gauge", "bohrloch",
+                    "sohle", "fond", "fondo", "forage", "bunnhull", "gat", "zabojnoe"}:
             return "pressure@downhole"
         return "pressure"
     if words & {"rate", "flow", "flowrate", "debiet", "debit", "caudal"}:

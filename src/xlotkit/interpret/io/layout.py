@@ -126,8 +126,29 @@ def _unit_like(cell: str) -> bool:
     if s.startswith(("(", "[")) and s.endswith((")", "]")):
         return True
     low = s.lower()
-    return low in ("-", "none", "unitless", "%", "#") or bool(
+    return low in _OTHER_UNITS or bool(
         re.match(r"^(deg|°|º)\s*[cf]$", low)) or field_unit_kind(low.replace(" ", "")) is not None
+
+
+#: Units of columns the reader does not use (proppant, additives, ...), so that a units row
+#: holding them is still seen as a units row.
+_OTHER_UNITS = frozenset(["-", "none", "unitless", "%", "#", "ppa", "ppg", "lb/gal", "lbm",
+                          "lbs", "lb", "kg", "t", "sacks", "sx", "ppt", "gpt", "cp", "mpa.s",
+                          "m", "ft", "rpm", "in", "mm", "kw", "hp", "v", "ma", "a", "api",
+                          "lbm/gal", "kg/m3", "ppm", "mg/l", "ntu", "frac", "fraction", "ratio",
+                          "count", "n", "bool", "sec/qt", "s/qt", "lb/mgal", "gal/mgal",
+                          "l/m3", "kg/t", "°", "deg", "hz", "min/h"])
+
+
+def _units_row_like(cells: Sequence[str]) -> bool:
+    """Most cells are units (and the rest empty): a units row, even with units the reader
+    has no use for."""
+    c = [x for x in cells if x.strip()]
+    if not c:
+        return False
+    known = sum(_unit_like(x) for x in c)
+    return known == len(c) or (known >= 0.6 * len(c) and not any(
+        cell_kind(x) in ("num", "numc") for x in c))
 
 
 def _text_like(cells: Sequence[str]) -> bool:
@@ -182,7 +203,8 @@ def _preamble_pairs(cells: Sequence[str], raw: str, out: dict[str, str]) -> bool
     if not found:
         # "tinj 520", "Well  AMS-01": a name and one value
         m = re.match(r"^\s*([A-Za-z_][\w .\-/()]*?)\s+([-+]?[\w.,:/\-]+(\s+\S+)?)\s*$", raw)
-        if m and len(raw.split()) <= 4:
+        # a value is one word, or holds a number ("2450 m"); a title line is no pair
+        if m and len(raw.split()) <= 4 and (m.group(3) is None or re.match(r"[-+]?\d", m.group(2))):
             out[m.group(1).strip()] = m.group(2).strip()
             found = True
     return found
@@ -263,9 +285,9 @@ def sniff_rows(rows: Sequence[Sequence[str]], raws: Sequence[str], lines: Sequen
         while above >= 0 and flags[above] in ("sep", "blank"):
             above -= 1
         cells_k = _trim(rows[k])
-        if (all(_unit_like(c) for c in cells_k) and above >= 0 and flags[above] == "other"
+        if (_units_row_like(cells_k) and above >= 0 and flags[above] == "other"
                 and _text_like(rows[above])
-                and not all(_unit_like(c) for c in _trim(rows[above]))):
+                and not _units_row_like(_trim(rows[above]))):
             units, header = k, above
         elif _text_like(rows[k]) or all(_unit_like(c) for c in cells_k):
             header = k
@@ -300,7 +322,11 @@ def sniff_rows(rows: Sequence[Sequence[str]], raws: Sequence[str], lines: Sequen
         raw = raws[r].strip()
         if flags[r] == "comment":
             text = raw.lstrip("#*;/!% ").rstrip("* ").strip()
-            if text and not _preamble_pairs([text], text, preamble):
+            # a comment holds a pair only as "Key: value" with a word for a key
+            m = re.match(r"^([A-Za-z][A-Za-z _.\-/()]*?)\s*[:=]\s*(\S.*)$", text)
+            if m:
+                preamble[m.group(1).strip()] = m.group(2).strip()
+            elif text:
                 comments.append(text)
             continue
         if not _preamble_pairs(rows[r], raw, preamble):
