@@ -477,6 +477,10 @@ def _run(name: str, method: str, fn: Callable | None, why: str, *args, **kw) -> 
             out = Pick.not_found(name, method, f"{method} failed: {type(exc).__name__}: {exc}")
     if not isinstance(out, Pick):
         return Pick.not_found(name, method, f"{method} returned {type(out).__name__}, not Pick")
+    if out.found and not np.isfinite(out.value):
+        # missing samples (NaN pressure where the file recorded none) reached the fit
+        return Pick.not_found(name, method, f"{method} gave no finite value (missing samples "
+                                            "in its window?)")
     notes = said.notes()
     if notes:
         msg = (out.message + "; " if out.message else "") + "numerical warnings: " + \
