@@ -98,13 +98,27 @@ def test_inspect_several_independent_logs_json(runner, tmp_path):
     assert [len(o["cycles"]) for o in obj["logs"]] == [1, 1]
 
 
-def test_inspect_plot_writes_png_and_may_overwrite(runner, tmp_path):
+def test_inspect_plot_writes_png_never_overwrites_refuses_unknown_suffix(runner, tmp_path):
+    import os
+    import stat
+
     log = _small_log(tmp_path / "small.txt")
     png = tmp_path / "overview.png"
-    for _ in range(2):
-        res = runner.invoke(main, ["inspect", str(log), "--plot", str(png)])
-        assert res.exit_code == 0, res.output
-        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    res = runner.invoke(main, ["inspect", str(log), "--plot", str(png)])
+    assert res.exit_code == 0, res.output
+    first = png.read_bytes()
+    assert first[:8] == b"\x89PNG\r\n\x1a\n"
+    # the user's umask, not the temporary file's private 0600
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(png.stat().st_mode) == 0o666 & ~mask
+    res = runner.invoke(main, ["inspect", str(log), "--plot", str(png)])
+    assert res.exit_code == 2 and "exists" in res.output and str(png) in res.output
+    assert png.read_bytes() == first
+    res = runner.invoke(main, ["inspect", str(log), "--plot", str(tmp_path / "o.txt")])
+    lines = res.output.strip().splitlines()
+    assert res.exit_code == 2 and len(lines) == 1 and "'.txt'" in lines[0]
+    assert "Traceback" not in res.output and not (tmp_path / "o.txt").exists()
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
 
 

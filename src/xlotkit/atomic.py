@@ -2,7 +2,9 @@
 
 Every file xlotkit writes (logs, reports, plots) goes through :func:`atomic_write`: the content
 is written to a temporary file in the target folder and moved into place with
-:func:`os.replace`, which is atomic on one file system.
+:func:`os.replace`, which is atomic on one file system. The file gets the permissions a plain ``open()`` would give it
+(``0666`` less the user's umask; an existing file being replaced keeps its mode), and an error
+while writing names the file the user asked for, never the temporary one.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+from xlotkit.errors import InputError
 
 __all__ = ["atomic_write", "atomic_write_text", "fresh_output_dir", "fresh_sibling_dir",
            "save_figure"]
@@ -37,21 +41,47 @@ def atomic_write(path: str | Path, write: Callable[[Path], None], *,
     """
     path = Path(path)
     # Keep the real suffix last so writers that infer the format from it still work.
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}",
-                               dir=path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}",
+                                   dir=path.parent)
+    except OSError as exc:
+        raise InputError(f"cannot write the file ({exc.strerror})", file=path,
+                         expected="a folder that exists and is writable") from None
     os.close(fd)
     try:
         write(Path(tmp))
+        # mkstemp makes the file private (0600); a result gets the user's normal permissions
+        os.chmod(tmp, _mode_for(path))
         if before_replace is not None:
             before_replace()
         os.replace(tmp, path)
+    except OSError as exc:
+        _unlink(tmp)
+        # the temporary name means nothing to the user: name the file they asked for
+        raise InputError(f"cannot write the file ({exc.strerror or exc})", file=path,
+                         expected="a writable folder with free space") from None
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
+        _unlink(tmp)
         raise
     return path
+
+
+def _unlink(tmp: str) -> None:
+    try:
+        os.unlink(tmp)
+    except OSError:
+        pass
+
+
+def _mode_for(path: Path) -> int:
+    """Permissions a new file gets from the user's umask (an existing file keeps its own)."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

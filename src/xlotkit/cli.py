@@ -57,30 +57,64 @@ def _fmt_elapsed(seconds: float) -> str:
 def _bar(pa: float) -> float:
     from xlotkit.units import from_si
 
-    return float(from_si([pa], "bar")[0])
+    return float(from_si([pa], "bar", fast=True)[0])     # shown rounded
 
 
-def _read_one(path: str):
-    """Read one log; a reader failing on garbage still gives one clear line."""
-    from xlotkit.interpret.io import read_log
+_READER_HELP = {
+    "column": "The column that plays ROLE (time, pressure, surface_pressure [the second "
+              "pressure of a pair], rate, volume, return_rate, return_volume, density, "
+              "temperature); NAME is its title or its 1-based number. Repeatable.",
+    "unit": "The unit of the column playing ROLE (psi, bar, kPa, MPa, atm, kgf/cm2, bpm, "
+            "l/min, m3/min, gal/min, s, min, h ...): supplies a unit the file never "
+            "states, or corrects one. Repeatable.",
+    "sheet": "Workbook sheet by name or 1-based number (default: the first sheet with a "
+             "time and a pressure column).",
+    "date_order": "Order of day, month and year where the dates leave it open "
+                  "(01/02/2024).",
+    "decimal": "Decimal separator where the numbers leave it open (3,431).",
+}
 
-    try:
-        return read_log(path)
-    except XlotkitError:
-        raise
-    except (ValueError, IndexError, KeyError) as exc:
-        raise InputError(f"cannot read log: {exc}", file=path) from exc
+
+def _reader_options(func):
+    """The options that tell the reader what a file does not say (inspect and pick)."""
+    opts = [
+        click.option("--column", "columns", multiple=True, metavar="ROLE=NAME",
+                     help=_READER_HELP["column"]),
+        click.option("--unit", "units", multiple=True, metavar="ROLE=UNIT",
+                     help=_READER_HELP["unit"]),
+        click.option("--sheet", "sheet", default=None, metavar="NAME|N",
+                     help=_READER_HELP["sheet"]),
+        click.option("--date-order", "date_order", default=None,
+                     type=click.Choice(["DMY", "MDY", "YMD"], case_sensitive=False),
+                     help=_READER_HELP["date_order"]),
+        click.option("--decimal", "decimal", default=None, type=click.Choice([".", ","]),
+                     help=_READER_HELP["decimal"]),
+    ]
+    for o in reversed(opts):
+        func = o(func)
+    return func
 
 
-def _records(logs: list[str]) -> list[tuple[list[str], object]]:
+def _read_kw(columns, units, sheet, date_order, decimal) -> dict:
+    return {"columns": list(columns), "units": list(units), "sheet": sheet,
+            "date_order": date_order.upper() if date_order else None, "decimal": decimal}
+
+
+def _records(logs: list[str], read_kw: dict | None = None) -> list[tuple[list[str], object]]:
     """The records to inspect: a surface + downhole pair merged, otherwise one per log.
 
     Two logs are a pair when one is a cementing-unit (surface) record and the other a
     downhole gauge record; any other combination is inspected log by log.
     """
-    from xlotkit.interpret.io import merge_surface_downhole
+    from xlotkit.interpret.io import merge_surface_downhole, read_each
 
-    recs = [_read_one(p) for p in logs]
+    try:
+        recs = read_each(list(logs), **(read_kw or {}))
+    except XlotkitError:
+        raise
+    except (ValueError, IndexError, KeyError) as exc:
+        # a reader failing on garbage still gives one clear line
+        raise InputError(f"cannot read log: {exc}", file=", ".join(logs)) from exc
     kinds = [r.reference.kind for r in recs]
     if len(recs) == 2 and sorted(kinds) == ["downhole", "surface"]:
         s, d = (recs[0], recs[1]) if kinds[0] == "surface" else (recs[1], recs[0])
@@ -174,14 +208,36 @@ def _plot_paths(plot: str, n: int) -> list[str]:
     return [str(p.with_name(f"{p.stem}-{k + 1}{p.suffix}")) for k in range(n)]
 
 
+_PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif",
+                  ".tiff", ".webp")
+
+
+def _check_plot_target(plot: str) -> None:
+    """Refuse an unknown plot format or an existing file before any work is done."""
+    from pathlib import Path
+
+    suffix = Path(plot).suffix.lower()
+    if suffix not in _PLOT_SUFFIXES:
+        raise InputError(f"cannot write a plot as {suffix or 'a file without suffix'!r}",
+                         file=plot, key="--plot",
+                         expected="a file ending in " + ", ".join(_PLOT_SUFFIXES))
+    parent = Path(plot).resolve().parent
+    if not parent.is_dir():
+        raise InputError("the directory for the plot does not exist", file=plot,
+                         key="--plot")
+
+
 @main.command("inspect")
 @click.argument("logs", nargs=-1, required=True, metavar="LOG [LOG ...]")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object instead of the table.")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
-              metavar="FILE", help="Write an overview plot (PNG, PDF, SVG by suffix).")
+              metavar="FILE", help="Write an overview plot (PNG, PDF, SVG by suffix); an "
+                                   "existing file is never replaced.")
+@_reader_options
 @_friendly_errors
-def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None) -> None:
+def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None, columns, units, sheet,
+                date_order, decimal) -> None:
     """Find the cycles (line test, casing test, LOT, XLOT) and phases in field logs.
 
     A cementing-unit (surface) log and a downhole-gauge log of the same test are merged
@@ -202,18 +258,22 @@ def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None) -> None:
         if path.is_dir():
             raise InputError("is a directory, expected a log file", file=p)
     if plot is not None:
-        parent = Path(plot).resolve().parent
-        if not parent.is_dir():
-            raise InputError("the directory for the plot does not exist", file=plot)
+        _check_plot_target(plot)
 
     from xlotkit.interpret.phases import segment
 
-    results = [(g, r, segment(r)) for g, r in _records(list(logs))]
+    results = [(g, r, segment(r)) for g, r in _records(list(logs), _read_kw(
+        columns, units, sheet, date_order, decimal))]
 
     if plot is not None:
         from xlotkit.interpret.plots.record import plot_record
 
-        for (g, record, seg), target in zip(results, _plot_paths(plot, len(results))):
+        targets = _plot_paths(plot, len(results))
+        for target in targets:
+            if Path(target).exists():
+                raise InputError("file exists; an earlier plot is never replaced",
+                                 file=target, key="--plot", expected="a new file name")
+        for (g, record, seg), target in zip(results, targets):
             plot_record(record, seg, path=target)
 
     if as_json:
@@ -347,9 +407,11 @@ def _pick_table(label: str, interp) -> str:
               help="Vertical stress gradient [sg EMW] (default 2.30).")
 @click.option("--mu", type=float, default=0.6, show_default=True,
               help="Friction coefficient for the stress polygon.")
+@_reader_options
 @_friendly_errors
 def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
-             pore_gradient, sv_gradient, mu) -> None:
+             pore_gradient, sv_gradient, mu, columns, units, sheet, date_order,
+             decimal) -> None:
     """Pick LOP, FBP, Pr, FPP, ISIP and closure (every method) with intervals; estimate stress.
 
     Logs are grouped as for `inspect` (a surface + downhole pair is merged). The table shows
@@ -369,7 +431,8 @@ def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
     options = _pick_options(windows, methods)
     sin = _stress_inputs(tvd, gauge_tvd, mud_density, pore_gradient, sv_gradient, mu)
     results = []
-    for group, record in _records(list(logs)):
+    for group, record in _records(list(logs), _read_kw(columns, units, sheet, date_order,
+                                                       decimal)):
         label = " + ".join(Path(g).name for g in group)
         results.append((label, interpret_record(record, options=options, stress_inputs=sin)))
     written = []

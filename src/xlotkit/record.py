@@ -84,12 +84,28 @@ class ColumnInfo:
         ``""`` when the column was not used.
     source : str
         File it came from.
+    unit_source : str
+        Where the unit came from: ``"header line 1"``, ``"units row line 2"``, ``"--unit"``,
+        ``"layout"`` (the file family fixes it) or ``""``.
+    resolution : float or None
+        Smallest step between two different recorded values, in SI units of the field
+        (the logger's quantisation, e.g. 1e5 Pa for a surface gauge reading whole bars);
+        None when the column has fewer than two distinct values or was not used.
+    n_missing : int
+        Data rows whose cell was blank, a not-recorded marker (``-``, ``N/A``, ...), or a
+        pressure written as 0 where it was not recorded (see the reader); NaN in the series.
+    dropped : tuple of (int, str, str)
+        Single impossible cells set to NaN: ``(line, cell text, reason)``.
     """
 
     name: str
     unit: str
     field: str
     source: str = ""
+    unit_source: str = ""
+    resolution: float | None = None
+    n_missing: int = 0
+    dropped: tuple[tuple[int, str, str], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -318,7 +318,7 @@ def test_ambiguous_dates_need_dayfirst(tmp_path):
     p.write_text("Timestamp;Pressure [bar]\n01/02/2024 10:00:00;1\n01/02/2024 10:00:05;2\n")
     with pytest.raises(InputError) as exc:
         read_log(p)
-    assert "amb.csv" in str(exc.value) and "dayfirst" in str(exc.value)
+    assert "amb.csv:2" in str(exc.value) and "--date-order" in str(exc.value)
     assert read_log(p, dayfirst=True).start_time == datetime(2024, 2, 1, 10)
     assert read_log(p, dayfirst=False).start_time == datetime(2024, 1, 2, 10)
     q = tmp_path / "iso.csv"
@@ -338,10 +338,14 @@ def test_column_map_units_and_reference_overrides(tmp_path):
     cols = {c.name: c.field for c in r.columns}
     assert cols["Mystery"] == ""                     # no unit: listed, not used
     assert "mystery" not in r.channels
+    # "Debiet" (Dutch for rate) is in the synonyms table: a rate without a unit is refused
+    with pytest.raises(InputError, match="Debiet.*--unit rate="):
+        read_log(p, column_map={"secs": "time", "Druk": "pressure"},
+                 units={"secs": "s", "Druk": "bar"})
     r2 = read_log(p, column_map={"secs": "time", "Druk": "pressure", "Mystery": "channel:m"},
-                  units={"secs": "s", "Druk": "bar"})
+                  units={"secs": "s", "Druk": "bar", "Debiet": "l/min"})
     assert np.allclose(r2.channels["m"], [1, 2])
-    assert read_log(p, column_map={"secs": "time", "Druk": "pressure"},
+    assert read_log(p, column_map={"secs": "time", "Druk": "pressure", "Debiet": ""},
                     units={"secs": "s", "Druk": "psia"}).reference.absolute is True
 
 
@@ -424,8 +428,14 @@ def test_error_unit_not_understood_and_wrong_dimension(tmp_path):
 def test_error_malformed_line_names_line_and_column(tmp_path):
     msg = _err(tmp_path, "bad.csv", "time (s),Pressure (bar),Rate (l/min)\n0,1,2\n1,x7,3\n2,3,4\n")
     assert "bad.csv:3" in msg and "Pressure" in msg and "x7" in msg
-    msg = _err(tmp_path, "short.csv", "time (s),Pressure (bar),Rate (l/min)\n0,1,2\n1,2\n2,3,4\n")
-    assert "short.csv:3" in msg
+    # a short row is a row whose last cells are blank: missing, not an error
+    short = tmp_path / "short.csv"
+    short.write_text("time (s),Pressure (bar),Rate (l/min)\n0,1,2\n1,2\n2,3,4\n")
+    r = read_log(short)
+    assert np.isnan(r.rate[1]) and r.pressure[1] == pytest.approx(2e5)
+    assert {c.name: c.n_missing for c in r.columns}["Rate"] == 1
+    msg = _err(tmp_path, "long.csv", "time (s),Pressure (bar),Rate (l/min)\n0,1,2\n1,2,3,4\n2,3,4\n")
+    assert "long.csv:3" in msg and "values" in msg
     cu = ("Time\tTreating Pressure\tFlow Rate\nmm:dd:yyyy:hh:mm:ss\tbars\tl/min\n____\t___\t___\n"
           "12:10:2023:14:42:58\t3\t0\n12:10:2023:14:42:59\t3\t0\t7\n")
     msg = _err(tmp_path, "cu_bad.txt", cu)

@@ -329,11 +329,21 @@ def _window(t: np.ndarray, seconds: float) -> int:
 
 
 def _median(x: np.ndarray, n: int) -> np.ndarray:
+    """Running median over ``n`` samples (odd), edges padded with the end values.
+
+    The same numbers as ``scipy.ndimage.median_filter(x, size=n, mode="nearest")``
+    (``tests/interpret/test_io_conventions.py`` checks it), through pandas' rolling median,
+    which is already imported by the reader; importing ``scipy.ndimage`` alone costs about a
+    third of a second per command.
+    """
     if n <= 1:
         return x.copy()
-    from scipy.ndimage import median_filter
+    import pandas as pd
 
-    return median_filter(x, size=n, mode="nearest")
+    h = n // 2
+    padded = np.concatenate([np.full(h, x[0]), x, np.full(h, x[-1])])
+    med = pd.Series(padded).rolling(n, center=True, min_periods=1).median().to_numpy()
+    return med[h:h + x.size]
 
 
 def _slope(t: np.ndarray, y: np.ndarray, half: int) -> np.ndarray:
@@ -373,12 +383,20 @@ def _base_pressure(t: np.ndarray, p: np.ndarray, opt: SegmentOptions) -> float:
     histogram of time spent per ``idle_band / 2`` bin is scanned from the bottom; brief
     excursions below it (gauge run in or pulled out) do not count.
     """
+    ok = np.isfinite(p)
+    if not ok.all():
+        t, p = t[ok], p[ok]
     if p.size < 3:
         return float(np.min(p)) if p.size else 0.0
     width = opt.idle_band / 2.0
     lo, hi = float(np.min(p)), float(np.max(p))
     if hi - lo < width:
         return float(np.median(p))
+    # Never more bins than the record could fill: a wild value (a 1e12 bar cell) must not
+    # make the histogram allocate terabytes; bins then widen relative to the record.
+    n_max = 20 * p.size + 1000
+    if (hi - lo) / width > n_max:
+        width = (hi - lo) / n_max
     edges = np.arange(lo, hi + width, width)
     w = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
     dwell, _ = np.histogram(p, bins=edges, weights=w)

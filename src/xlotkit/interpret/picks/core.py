@@ -69,6 +69,7 @@ contradiction).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 from collections.abc import Callable, Mapping, Sequence
@@ -81,6 +82,7 @@ from xlotkit.interpret.phases import Cycle, Segmentation
 from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
 from xlotkit.interpret.picks.models import fit_line
 from xlotkit.interpret.picks.types import Pick
+from xlotkit.quiet import captured
 from xlotkit.record import Record
 
 __all__ = [
@@ -466,12 +468,25 @@ def _run(name: str, method: str, fn: Callable | None, why: str, *args, **kw) -> 
     """Call a pick function; a missing or failing one becomes a not-found pick."""
     if fn is None:
         return Pick.not_found(name, method, why)
-    try:
-        out = fn(*args, **kw)
-    except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
-        return Pick.not_found(name, method, f"{method} failed: {type(exc).__name__}: {exc}")
+    # numpy/LAPACK warnings (RankWarning, DLASCL) never reach the terminal: they become a
+    # note on this pick, and a "good" pick made despite them is only "fair"
+    with captured() as said:
+        try:
+            out = fn(*args, **kw)
+        except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
+            out = Pick.not_found(name, method, f"{method} failed: {type(exc).__name__}: {exc}")
     if not isinstance(out, Pick):
         return Pick.not_found(name, method, f"{method} returned {type(out).__name__}, not Pick")
+    if out.found and not np.isfinite(out.value):
+        # missing samples (NaN pressure where the file recorded none) reached the fit
+        return Pick.not_found(name, method, f"{method} gave no finite value (missing samples "
+                                            "in its window?)")
+    notes = said.notes()
+    if notes:
+        msg = (out.message + "; " if out.message else "") + "numerical warnings: " + \
+            "; ".join(notes[:3])
+        out = dataclasses.replace(out, message=msg, quality="fair" if out.quality == "good"
+                                  else out.quality)
     return out
 
 
@@ -522,10 +537,13 @@ def _stiffness(record: Record, cycle: Cycle, picks: Sequence[Pick]
     m &= (p >= p0 + 0.15 * (top - p0)) & (p <= upper)
     if m.sum() < 5 or np.ptp(v[m]) <= 0:
         return None, None, "too few pressurisation samples"
-    f = fit_line(v[m], p[m])
+    with captured() as said:
+        f = fit_line(v[m], p[m])
     if not f.slope > 0:
         return None, None, "pressure did not rise with pumped volume"
     src = "line through p vs pumped volume (15-60 % of the pressure rise)"
+    if said.notes():
+        src += "; numerical warnings: " + "; ".join(said.notes()[:3])
     for pk in picks:
         if pk.name in ("LOP", "Pr"):
             for k in _STIFFNESS_KEYS:
