@@ -2,13 +2,15 @@
 
 Every file xlotkit writes (logs, reports, plots) goes through :func:`atomic_write`: the content
 is written to a temporary file in the target folder and moved into place with
-:func:`os.replace`, which is atomic on one file system.
+:func:`os.replace`, which is atomic on one file system. The temporary file is created with
+mode 0o666 less the process's umask, as :func:`open` creates files, so a result gets the
+user's normal permissions (:func:`tempfile.mkstemp` would make it private, 0o600).
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
+import secrets
 from collections.abc import Callable
 from pathlib import Path
 
@@ -36,10 +38,7 @@ def atomic_write(path: str | Path, write: Callable[[Path], None], *,
         ``path``.
     """
     path = Path(path)
-    # Keep the real suffix last so writers that infer the format from it still work.
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}",
-                               dir=path.parent)
-    os.close(fd)
+    tmp = _create_temporary(path)
     try:
         write(Path(tmp))
         if before_replace is not None:
@@ -52,6 +51,20 @@ def atomic_write(path: str | Path, write: Callable[[Path], None], *,
             pass
         raise
     return path
+
+
+def _create_temporary(path: Path) -> str:
+    """Create an empty, new temporary sibling of ``path`` (exclusively, like mkstemp, but
+    with the umask applied by the kernel) and return its name. The real suffix is kept last
+    so writers that infer the format from it still work."""
+    while True:
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp{path.suffix}"
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            continue
+        os.close(fd)
+        return str(tmp)
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
