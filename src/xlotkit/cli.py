@@ -689,7 +689,7 @@ def _pick_batch(logs, out, as_json, options, stress_inputs, workers, scheduler) 
     """``xlotkit pick --batch``: every log of an archive into one table."""
     import shlex
 
-    from xlotkit.study.batch import BatchSpec, run_batch
+    from xlotkit.study.batch import BatchSpec, expand_inputs, run_batch
 
     if out is None:
         raise InputError("a batch needs a results folder", key="--batch",
@@ -698,6 +698,7 @@ def _pick_batch(logs, out, as_json, options, stress_inputs, workers, scheduler) 
         raise InputError("is for single logs; a batch writes DIR/results.parquet and "
                          "results.csv", key="--json", expected="--json without --batch")
     executor = _executor(workers, scheduler)
+    expand_inputs(logs)             # an input that names no file: one error, before the bar
     spec = BatchSpec(tuple(logs), options, stress_inputs)
     command = "xlotkit pick --batch " + " ".join(shlex.quote(x) for x in logs) + \
         f" --out {shlex.quote(out)}"
@@ -728,19 +729,21 @@ def sweep_cmd(scene_file, vary, samples, seed, out, workers, scheduler) -> None:
     the realised stresses, wall time and status) and one folder per case in DIR/cases/
     (scene, simulation, log, case.log). A failed case is a row with its error and does not
     stop the sweep. A rerun of the same command continues: finished cases are kept.
+    Every case's scene is checked before any runs: a bad --vary key or value is one error.
     """
     import shlex
 
     from xlotkit.study.sweep import SweepSpec, plan_sweep, run_sweep
 
     spec = SweepSpec.from_options(scene_file, vary, samples, seed)
-    plan_sweep(spec, out)           # every case's scene checked before a worker starts
     executor = _executor(workers, scheduler)
+    plan = plan_sweep(spec, out)    # every case's scene checked before the bar and the pool
     command = " ".join(["xlotkit sweep", shlex.quote(scene_file),
                         *(f"--vary {shlex.quote(v)}" for v in vary),
                         *([f"--samples {samples}"] if samples is not None else []),
                         *([f"--seed {seed}"] if seed is not None else []),
                         f"--out {shlex.quote(out)}"])
     res = _run_study(lambda progress: run_sweep(spec, out, executor=executor,
-                                                progress=progress), "cases", command)
+                                                progress=progress, plan=plan),
+                     "cases", command)
     _study_report(res, "cases")

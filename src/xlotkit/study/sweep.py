@@ -11,7 +11,8 @@ each unfinished case with :func:`run_case` on an executor. A case's folder
     case.json       the case's position and the values it gives the varied keys
     run/            what ``xlotkit simulate`` writes (time series, synthetic log, summary;
                     a checkpoint while it runs)
-    log.csv         the synthetic log; truth.json: the run's summary (imposed, realised)
+    log.csv         the synthetic log (a hard link to run/synthetic_log.csv where the file
+                    system has them); truth.json: the run's summary (imposed, realised)
     case.log        what happened, with the traceback of a failure
     result.json     the case's row (written last: the case has finished)
 
@@ -44,6 +45,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
 import shutil
 import time
@@ -204,7 +206,7 @@ def plan_sweep(spec: SweepSpec, out: str | Path) -> SweepPlan:
 
 
 def run_sweep(spec: SweepSpec, out: str | Path, *, executor: Executor | None = None,
-              progress: Progress | None = None) -> StudyResult:
+              progress: Progress | None = None, plan: SweepPlan | None = None) -> StudyResult:
     """Run a sweep into ``out`` (or continue it there) and write its table.
 
     Parameters
@@ -216,6 +218,8 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, executor: Executor | None = N
         Default: a local process pool on every CPU.
     progress : callable, optional
         ``progress(fraction, message)`` as cases finish.
+    plan : SweepPlan, optional
+        ``plan_sweep(spec, out)`` made already (it is not made twice).
 
     Returns
     -------
@@ -227,7 +231,10 @@ def run_sweep(spec: SweepSpec, out: str | Path, *, executor: Executor | None = N
         Before anything runs: a bad scene or ``--vary``, or ``out`` holding other results.
     """
     t0 = time.perf_counter()
-    plan = plan_sweep(spec, out)
+    if plan is None:
+        plan = plan_sweep(spec, out)
+    elif plan.spec != spec:
+        raise ValueError("the plan is of another sweep")
     folder = StudyFolder.open(out, "sweep", CASES, [t.case_id for t in plan.tasks],
                               spec.describe())
     items = [Item(t.case_id, t.index, t, f"case {t.index} ({t.case_id})") for t in plan.tasks]
@@ -310,8 +317,18 @@ def _simulate(scene, run: Path, log: list[str]):
     return summary, time.perf_counter() - t0
 
 
-def _copy(src: Path, dst: Path) -> None:
-    atomic_write(dst, lambda tmp: shutil.copyfile(src, tmp))
+def _link(src: Path, dst: Path) -> None:
+    """``dst`` the same file as ``src`` (a hard link, so the log is stored once; a copy
+    where the file system has none), put in place atomically."""
+
+    def write(tmp: Path) -> None:
+        tmp.unlink()
+        try:
+            os.link(src, tmp)
+        except OSError:
+            shutil.copyfile(src, tmp)
+
+    atomic_write(dst, write)
 
 
 def run_case(task: CaseTask) -> list[dict[str, Any]]:
@@ -340,7 +357,7 @@ def run_case(task: CaseTask) -> list[dict[str, Any]]:
         row.update(model=scene.resolved_model, seed=int(scene.seed))
         stage = "simulate"
         summary, sim_wall = _simulate(scene, folder / "run", log)
-        _copy(folder / "run" / "synthetic_log.csv", folder / "log.csv")
+        _link(folder / "run" / "synthetic_log.csv", folder / "log.csv")
         entry = Entry(task.case_id, folder)
         truth = {"name": task.case_id, "command": entry.command(), "wall_time_s": sim_wall,
                  **{k: v for k, v in summary.items() if k != "files"}}
