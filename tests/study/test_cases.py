@@ -140,3 +140,13 @@ def test_a_bad_key_or_value_is_one_error_naming_it(vary, key, what):
         base.scene(grid([parse_vary(vary)])[0])
     assert e.value.key == key
     assert what in e.value.message
+
+
+def test_a_cross_check_failing_names_the_case():
+    # sigma_h varied above the scene's sigma_H: the error is the scene's own cross-check,
+    # on stresses.sigma_H, with the case's values
+    base = BaseScene.load(LUMPED)
+    with pytest.raises(InputError) as e:
+        base.scene(grid([parse_vary("stresses.sigma_h=36 MPa")])[0])
+    assert e.value.key == "stresses.sigma_H"
+    assert "case 0: stresses.sigma_h = '36 MPa'" in e.value.message

@@ -447,7 +447,10 @@ def scene_of(mapping: Mapping[str, Any], file: str, case: Case | None = None):
         hit = next((k for k in given if ek == k or ek.startswith(k + ".")
                     or _base(k) == ek), None)
         if hit is None:
-            raise
+            shown = ", ".join(f"{k} = {v!r}" for k, v in given.items())
+            raise InputError(f"{exc.message} (case {case.index}: {shown})" if given
+                             else exc.message, file=file, line=exc.line, key=exc.key,
+                             expected=exc.expected) from None
         raise InputError(f"{exc.message} (case {case.index}: {hit} = {given[hit]!r})",
                          file=file, key=f"{_FLAG} {ek}", expected=exc.expected) from None
 
