@@ -285,6 +285,25 @@ def inspect_cmd(logs: tuple[str, ...], as_json: bool, plot: str | None, columns,
 
 
 # ====================================================================== pick
+def _executor_options(func):
+    """``--workers N`` (a local process pool) and ``--scheduler ADDRESS`` (Dask)."""
+    func = click.option("--scheduler", "scheduler", default=None, metavar="ADDRESS",
+                        help="Run on the Dask distributed cluster of this scheduler "
+                             "(tcp://HOST:8786) instead of a local process pool; its workers "
+                             "need xlotkit and a file system shared with DIR.")(func)
+    return click.option("--workers", "workers", type=int, default=None, metavar="N",
+                        help="Processes of the local pool (default: every CPU).")(func)
+
+
+def _batch_options(func):
+    """``--batch``, ``--workers``, ``--scheduler`` of ``pick`` (the batch interpretation)."""
+    func = _executor_options(func)
+    return click.option("--batch", "batch", is_flag=True,
+                        help="Interpret a whole archive: LOG arguments are files, folders "
+                             "or glob patterns; needs --out DIR (results.parquet, "
+                             "results.csv, one folder per log).")(func)
+
+
 def _parse_window(text: str):
     """``NAME=T0:T1`` or ``CYCLE:NAME=T0:T1`` (times in s from the record start)."""
     try:
@@ -408,16 +427,23 @@ def _pick_table(label: str, interp) -> str:
 @click.option("--mu", type=float, default=0.6, show_default=True,
               help="Friction coefficient for the stress polygon.")
 @_reader_options
+@_batch_options
 @_friendly_errors
 def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
              pore_gradient, sv_gradient, mu, columns, units, sheet, date_order,
-             decimal) -> None:
+             decimal, batch, workers, scheduler) -> None:
     """Pick LOP, FBP, Pr, FPP, ISIP and closure (every method) with intervals; estimate stress.
 
     Logs are grouped as for `inspect` (a surface + downhole pair is merged). The table shows
     every test cycle with each closure method's pick and interval, the consensus FCP and the
     stress estimate. --json prints one object with a "cycles" list (several independent logs:
     {"logs": [...]}).
+
+    With --batch, LOG arguments are files, folders or glob patterns of a whole archive:
+    every log (a surface + downhole pair of one test merged) is interpreted on its own, on
+    a local process pool (--workers N) or a Dask cluster (--scheduler ADDRESS), into
+    DIR/results.parquet and DIR/results.csv (one row per test cycle) and one folder per log
+    in DIR/logs/; a rerun into the same DIR continues where it stopped.
     """
     import json
     from pathlib import Path
@@ -425,6 +451,13 @@ def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
     from xlotkit.interpret.report import picks_to_dict
     from xlotkit.pipeline import interpret_record, write_interpretation
 
+    if batch:
+        _pick_batch(logs, out, as_json, _pick_options(windows, methods),
+                    _stress_inputs(tvd, gauge_tvd, mud_density, pore_gradient, sv_gradient,
+                                   mu), workers, scheduler,
+                    _read_kw(columns, units, sheet, date_order, decimal))
+        return
+    _refuse_executor_options(workers, scheduler, "--batch")
     for p in logs:
         if not Path(p).is_file():
             raise InputError("no such file", file=p)
@@ -663,3 +696,122 @@ def library_compare_cmd(root: str, names: tuple[str, ...]) -> None:
         click.echo(f"{c.entry.name}: {'same' if c.same else 'DIFFERENT'} ({c.message})")
     if not all(c.same for c in out):
         sys.exit(1)
+
+
+# ====================================================================== studies
+def _refuse_executor_options(workers, scheduler, needs: str) -> None:
+    """The executor options are for a study only (never accepted and ignored)."""
+    for flag, v in (("--workers", workers), ("--scheduler", scheduler)):
+        if v is not None:
+            raise InputError("is for a batch of logs", key=flag, expected=f"{needs} as well")
+
+
+def _executor(workers, scheduler):
+    from xlotkit.study.executors import DaskCluster, LocalPool, default_workers
+
+    if scheduler is not None:
+        if workers is not None:
+            raise InputError("sets the local pool, not a Dask cluster's workers", key="--workers",
+                             expected="--workers or --scheduler, not both (a cluster's "
+                                      "workers are set where it is started)")
+        return DaskCluster(address=scheduler)
+    return LocalPool(default_workers() if workers is None else workers)
+
+
+def _run_study(run, what: str, command: str):
+    """Run a study with one progress bar; Ctrl-C says how to continue."""
+    bar, progress = _progress_bar(what)
+    try:
+        with bar:
+            return run(progress)
+    except KeyboardInterrupt:
+        click.echo(f"interrupted; the finished {what} are kept: run `{command}` again to "
+                   f"continue", err=True)
+        sys.exit(130)
+
+
+def _study_report(res, what: str) -> None:
+    """The summary lines of a finished study; exit status 1 if items were lost."""
+    n_items = len(res.computed) + len(res.skipped) + len(res.lost)
+    counts = res.table["status"].value_counts() if len(res.table) else {}
+    statuses = ", ".join(f"{int(v)} {k}" for k, v in counts.items())
+    click.echo(f"{n_items} {what} ({len(res.skipped)} finished earlier, {len(res.computed)} "
+               f"run now on {res.executor}) in {res.wall_time:.1f} s; rows: {statuses}")
+    bad = [r for r in res.table.to_dict("records") if r.get("status") in ("failed", "lost")]
+    for r in bad[:10]:
+        click.echo(f"  {r['status']}: {r.get('case', r.get('log'))}: {r['message']}")
+    if len(bad) > 10:
+        click.echo(f"  ... {len(bad) - 10} more in the table")
+    click.echo(f"table: {res.paths['parquet']}, {res.paths['csv']}")
+    if res.lost:
+        click.echo(f"{len(res.lost)} {what} did not come back; run the same command again "
+                   f"to run them", err=True)
+        sys.exit(1)
+
+
+def _pick_batch(logs, out, as_json, options, stress_inputs, workers, scheduler,
+                read_kw) -> None:
+    """``xlotkit pick --batch``: every log of an archive into one table, every file read
+    with the same reader options (``read_kw``, as :func:`_read_kw` gives them)."""
+    import shlex
+
+    from xlotkit.interpret.io import read_options
+    from xlotkit.study.batch import BatchSpec, expand_inputs, run_batch
+
+    if out is None:
+        raise InputError("a batch needs a results folder", key="--batch",
+                         expected="--out DIR")
+    if as_json:
+        raise InputError("is for single logs; a batch writes DIR/results.parquet and "
+                         "results.csv", key="--json", expected="--json without --batch")
+    executor = _executor(workers, scheduler)
+    expand_inputs(logs)             # an input that names no file: one error, before the bar
+    spec = BatchSpec(tuple(logs), options, stress_inputs,
+                     read_options=read_options(**read_kw, strict=False))
+    command = "xlotkit pick --batch " + " ".join(shlex.quote(x) for x in logs) + \
+        f" --out {shlex.quote(out)}"
+    res = _run_study(lambda progress: run_batch(spec, out, executor=executor,
+                                                progress=progress), "logs", command)
+    _study_report(res, "log groups")
+
+
+@main.command("sweep")
+@click.argument("scene_file", metavar="SCENE.toml", type=click.Path(dir_okay=False))
+@click.option("--vary", "vary", multiple=True, metavar="KEY=V1,V2,...|KEY=LOW:HIGH[:log]",
+              help="A dotted scene key and its values (units as in a scene: "
+                   "'stresses.sigma_h=28 MPa,30 MPa,32 MPa'), or with --samples a range "
+                   "('rock.permeability=1e-19:1e-17:log'). Repeatable: lists make a grid.")
+@click.option("--samples", type=int, default=None, metavar="N",
+              help="Draw N cases by Latin-hypercube sampling from the --vary ranges.")
+@click.option("--seed", type=int, default=None, metavar="S",
+              help="Seed of the --samples draws (default 0; same seed, same cases).")
+@click.option("--out", "out", type=click.Path(file_okay=False), required=True, metavar="DIR",
+              help="Study folder: new, or the folder of the same sweep to continue it.")
+@_executor_options
+@_friendly_errors
+def sweep_cmd(scene_file, vary, samples, seed, out, workers, scheduler) -> None:
+    """Simulate many cases of a scene and pick each synthetic log as a field log.
+
+    Writes DIR/results.parquet and DIR/results.csv (one row per case: the varied inputs,
+    the picks -- FCP per method, ISIP, FBP, Pr -- with their errors against the imposed and
+    the realised stresses, wall time and status) and one folder per case in DIR/cases/
+    (scene, simulation, log, case.log). A failed case is a row with its error and does not
+    stop the sweep. A rerun of the same command continues: finished cases are kept.
+    Every case's scene is checked before any runs: a bad --vary key or value is one error.
+    """
+    import shlex
+
+    from xlotkit.study.sweep import SweepSpec, plan_sweep, run_sweep
+
+    spec = SweepSpec.from_options(scene_file, vary, samples, seed)
+    executor = _executor(workers, scheduler)
+    plan = plan_sweep(spec, out)    # every case's scene checked before the bar and the pool
+    command = " ".join(["xlotkit sweep", shlex.quote(scene_file),
+                        *(f"--vary {shlex.quote(v)}" for v in vary),
+                        *([f"--samples {samples}"] if samples is not None else []),
+                        *([f"--seed {seed}"] if seed is not None else []),
+                        f"--out {shlex.quote(out)}"])
+    res = _run_study(lambda progress: run_sweep(spec, out, executor=executor,
+                                                progress=progress, plan=plan),
+                     "cases", command)
+    _study_report(res, "cases")

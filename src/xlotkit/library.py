@@ -346,6 +346,9 @@ class Evaluation:
     fbp: float | None = None              # [Pa] picked FBP of the first test cycle, at depth
     pr: float | None = None               # [Pa] picked Pr of the first later cycle, at depth
     depth_offset: float = 0.0             # [Pa] gauge -> open hole (0 at the bottom hole)
+    #: the :class:`xlotkit.pipeline.Interpretation` the checks were made on (every pick,
+    #: on the gauge's reference: add ``depth_offset`` for the open hole)
+    interpretation: Any = None
 
     @property
     def passed(self) -> bool:
@@ -515,7 +518,8 @@ def evaluate(entry: Entry) -> Evaluation:
     return Evaluation(entry, truth, tuple(checks), s.t0 if s.available else None, sig_H,
                       s.sigma_h if s.available else None, tuple(general),
                       fbp=fbp.value + offset if fbp is not None else None,
-                      pr=pr.value + offset if pr is not None else None, depth_offset=offset)
+                      pr=pr.value + offset if pr is not None else None, depth_offset=offset,
+                      interpretation=interp)
 
 
 def _pct(v: float | None, ref: float) -> str:

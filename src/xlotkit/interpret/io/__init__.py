@@ -47,11 +47,26 @@ __all__ = [
     "merge_surface_downhole",
     "read_log",
     "read_logs",
+    "read_options",
     "write_log",
 ]
 
 _KINDS = ("auto", "cementing_unit", "downhole_gauge", "csv", "workbook")
 _DATE_ORDERS = ("DMY", "MDY", "YMD")
+
+
+def read_options(columns: Mapping[str, str] | Sequence[str] | None = None,
+                 units: Mapping[str, str] | Sequence[str] | None = None, *,
+                 column_map: Mapping[str, str] | None = None,
+                 sheet: str | int | None = None, date_order: str | None = None,
+                 dayfirst: bool | None = None, decimal: str | None = None,
+                 strict: bool = True) -> ReadOptions:
+    """The reader's options from the command line's spellings (``--column ROLE=NAME``,
+    ``--unit ROLE=UNIT``, ``--sheet``, ``--date-order``, ``--decimal``), validated once, e.g.
+    to read many files of an archive alike (``strict=False``: a ``--column`` choice need not
+    fit every file). Parameters as for :func:`read_log`."""
+    return _options(columns, units, column_map, sheet, date_order, dayfirst, decimal,
+                    strict=strict)
 
 
 def _options(columns, units, column_map, sheet, date_order, dayfirst, decimal,
