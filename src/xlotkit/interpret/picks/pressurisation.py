@@ -585,7 +585,7 @@ def _pressurisation_pick(name: str, record: Record, cycle: Cycle,
             msg = (msg + "; " if msg else "") + "departure at the peak (brittle breakdown)"
     return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
                 high=pick.high, t=pick.t, window=pick.window, quality=pick.quality,
-                message=msg, details=d)
+                message=msg, details=d, level=pick.level)
 
 
 def pick_lop(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None) -> Pick:

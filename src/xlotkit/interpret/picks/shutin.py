@@ -42,6 +42,13 @@ from typing import Any
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle
+from xlotkit.interpret.picks.intervals import (
+    IntervalBudget,
+    budget,
+    corner_profile,
+    correlation_inflation,
+    find_transition,
+)
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect
 from xlotkit.interpret.picks.pressurisation import (
     MIN_LINE_POINTS,
@@ -163,7 +170,7 @@ def _finish(pick: Pick, sh: _Shut, extra: dict[str, Any]) -> Pick:
     d.setdefault("drop_samples_skipped", sh.j0)
     return Pick(name="FCP", method=pick.method, value=pick.value, low=pick.low, high=pick.high,
                 t=pick.t, window=pick.window, quality=pick.quality, message=pick.message,
-                details=d)
+                details=d, level=pick.level)
 
 
 def _inside(sh: _Shut, value: float | None) -> bool:
@@ -398,16 +405,62 @@ def _break_pick(sh: _Shut, brk: _Break, method: str, x: np.ndarray, x_name: str,
     # The kink lies somewhere between two samples: on clean data that, not the fit, limits
     # how well the breakpoint pressure is known.
     res = _sample_resolution(xs, h.s1, h.s2, h.x0)
-    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    # Quality grades the fit (R^2 and its own width), as before intervals had a level.
+    q = quality(h.r2, value, min(vals) - max(s, res), max(vals) + max(s, res), h.n)
+    t_pick = float(np.interp(h.x0, xs, t[sel]))
+    bud = _shutin_budget(sh, brk, x, value, s, p[sel] - h(x[sel]), vals, res, t_pick, alpha)
     details["trial_values"] = vals
     details["breakpoint_stderr"] = s
     details["sampling_resolution"] = res
-    q = quality(h.r2, value, low, high, h.n)
-    return Pick("FCP", method, value, float(low), float(high),
-                t=float(np.interp(h.x0, xs, t[sel])),
+    details["interval"] = bud
+    return Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
                 window=(float(t[sel][0]), float(t[sel][-1])),
                 quality=q, message=f"slope break ({brk.kind}: dP/dG x{brk.ratio:.2f})",
-                details=details)
+                details=details, level=bud.level)
+
+
+def _derivative_budget(sh: _Shut, value: float, se: float, resid: np.ndarray, trials,
+                       t_pick: float, alpha: float = 1.0, extra=()) -> IntervalBudget:
+    """The 90 % interval of a closure pick read from a derivative (bilinear, compliance):
+    its own fit error and trials, and the decline's transition around the pick, searched
+    on p vs G as for the straight-line methods (:func:`_shutin_budget`) with the break
+    scan's window."""
+    brk = _find_break(sh, alpha)
+    sl = slice(sh.j0, None)
+    if brk is None:
+        return budget(value, stderr=se, inflation=correlation_inflation(resid),
+                      trials=trials, resolution=0.5 * quantum(sh.p[sl]), extra=extra)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    return _shutin_budget(sh, brk, G, value, se, resid, trials, 0.0, t_pick, alpha, extra)
+
+
+def _shutin_budget(sh: _Shut, brk: _Break, x: np.ndarray, value: float, se: float,
+                   resid: np.ndarray, trials, sampling: float, t_pick: float,
+                   alpha: float = 1.0, extra=()) -> IntervalBudget:
+    """The 90 % interval of a closure pick at a slope break of the decline
+    (:mod:`~xlotkit.interpret.picks.intervals`): the fit's standard error inflated for
+    correlated residuals, the spread over fit spans and bootstrap copies, the pressure span
+    over which the decline leaves both the line before and the line after closure (a
+    gradual closure, searched on the method's own abscissa ``x`` around the break, sides
+    of ``2 w`` and ``w`` of G as the break scan), and the resolution: half the gauge's
+    quantisation step and the pressure change over half a sample at the kink."""
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    p = sh.p[sl]
+    g0 = float(np.interp(t_pick, sh.t[sl], G))
+    span = find_transition(G, x, p, p, g0, 2.0 * brk.w, brk.w, noise=sh.sigma)
+    tr = None if span is None else (span[0], span[1])
+    resolution = float(np.hypot(0.5 * quantum(p), sampling))
+    infl = correlation_inflation(resid)
+    extra = list(extra)
+    near = (G >= g0 - brk.w) & (G <= g0 + brk.w)
+    x0 = float(np.interp(g0, G, x))
+    hw = 0.5 * float(np.ptp(x[near])) if near.sum() >= 8 else 0.0
+    cp = corner_profile(x[near], p[near], x0, hw, inflation=infl) if hw > 0 else None
+    if cp is not None:
+        extra.append(("corner fit", cp[0], cp[1]))
+    return budget(value, stderr=se, inflation=infl, trials=trials,
+                  transition=tr, resolution=resolution, extra=extra)
 
 
 def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Callable,
@@ -526,7 +579,7 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
         msg = pick.message + "; " + msg
     return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
                 high=pick.high, t=pick.t, window=pick.window, quality=pick.quality, message=msg,
-                details=d)
+                details=d, level=pick.level)
 
 
 def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
@@ -593,14 +646,18 @@ def _tangents_at_break(sh: _Shut, brk: _Break) -> Pick:
                 vals.append(y2)
     s = float(np.nan_to_num(sys_))
     res = _sample_resolution(sh.dt[post], fe.slope, fl.slope, xs)
-    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    q = quality(min(fe.r2, fl.r2), ys, min(vals) - max(s, res), max(vals) + max(s, res),
+                min(fe.n, fl.n))
+    resid = np.concatenate([sh.p[pre] - fe(sh.dt[pre]), sh.p[aft] - fl(sh.dt[aft])])
+    bud = _shutin_budget(sh, brk, sh.dt[sh.j0:], float(ys), s, resid, vals, res,
+                         float(sh.t_s + xs))
     details.update({"sampling_resolution": res, "t_intersection": sh.t_s + xs,
                     "t_intersection_stderr": sxs,
                     "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
-                    "intersection_stderr": s})
-    q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
-    return Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
-                window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details)
+                    "intersection_stderr": s, "interval": bud})
+    return Pick("FCP", method, float(ys), bud.low, bud.high, t=float(sh.t_s + xs),
+                window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details,
+                level=bud.level)
 
 
 def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
@@ -786,9 +843,11 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     k = int(np.argmax(psm <= h.x0)) if np.any(psm <= h.x0) else psm.size - 1
     details.update({"trial_values": vals, "x0_stderr": s})
     q = quality(h.r2, h.x0, low, high, h.n)
-    pick = Pick("FCP", method, float(h.x0), float(low), float(high), t=float(t[k]),
+    bud = _derivative_budget(sh, float(h.x0), s, base[0].result.residual, vals, float(t[k]))
+    details["interval"] = bud
+    pick = Pick("FCP", method, float(h.x0), bud.low, bud.high, t=float(t[k]),
                 window=(float(t[0]), float(t[-1])) if window is None else tuple(window),
-                quality=q, details=details)
+                quality=q, details=details, level=bud.level)
     return _finish(pick, sh, {})
 
 
@@ -852,13 +911,13 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
             h = fit_hinge(G[idx], d[idx], min_points=MIN_LINE_POINTS)
         except (ValueError, TypeError):
             return None
-        return h, psm
+        return h, psm, float(G[idx[-1]])
 
     base = run(DERIVATIVE_L)
     if base is None:
         return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
                                       "|dP/dG| does not rise after its minimum"), sh, {})
-    h, psm = base
+    h, psm, g_end = base
     details = {"G_pick": h.x0, "G_pick_stderr": h.x0_stderr, "dPdG_at_closure": -h.y0,
                "s_before": h.s1, "s_after": h.s2, "r2": h.r2, "n": h.n, "alpha": alpha}
     sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
@@ -886,9 +945,15 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     low, high = min(vals), max(vals)
     details["trial_values"] = vals
     q = quality(h.r2, value, low, high, h.n)
-    pick = Pick("FCP", method, value, float(low), float(high),
-                t=float(np.interp(h.x0, G, t)), window=(float(t[0]), float(t[-1])),
-                quality=q, details=details)
+    t_pick = float(np.interp(h.x0, G, t))
+    # The stiffness rises from the walls' first contact (the pick) to the end of the rise
+    # (the largest |dP/dG|): the fracture closes over that span, which the interval covers.
+    rise = [("stiffness rise", *sorted((p_at(g_end), value)))] if g_end > h.x0 else []
+    bud = _derivative_budget(sh, value, 0.0, h.result.residual, vals, t_pick, alpha, rise)
+    details["interval"] = bud
+    pick = Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
+                window=(float(t[0]), float(t[-1])), quality=q, details=details,
+                level=bud.level)
     return _finish(pick, sh, {})
 
 
