@@ -262,6 +262,8 @@ class Truth:
         Closure pressure (what every closure pick should find).
     isip : tuple of float
         ISIP of cycles 1 and 2.
+    lop : float
+        Leak-off pressure of cycle 1 (onset of the departure from the storage line).
     fbp : float
         Breakdown pressure (the highest pressure the gauge would read in cycle 1).
     reopening : float
@@ -280,6 +282,7 @@ class Truth:
 
     sigma_h: float
     isip: tuple[float, float]
+    lop: float
     fbp: float
     reopening: float
     t0: float
@@ -579,6 +582,7 @@ def _sample(sp: ConstructedSpec, tl: _Timeline, rng: np.random.Generator, truth_
     truth = Truth(
         sigma_h=sp.sigma_h + shift,
         isip=(truth_isip[0] + shift, truth_isip[1] + shift),
+        lop=sp.lop + shift + (sp.pipe_friction if sp.gauge == "surface" else 0.0),
         fbp=fbp_truth,
         reopening=pr_truth,
         t0=fbp_truth - pr_truth,

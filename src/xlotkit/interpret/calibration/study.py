@@ -8,7 +8,8 @@ intervals are tested, not the segmentation) and compares every pick with the tru
 * ``FCP`` by every method that found a value and the consensus, against ``sigma_h``
   (every found closure pick is compared: a closure reported where the record has none is a
   miss, whatever its interval);
-* ``ISIP`` of both cycles, ``FBP`` of cycle 1, ``Pr`` of cycle 2, ``T0 = FBP - Pr``.
+* ``ISIP`` of both cycles, ``LOP`` and ``FBP`` of cycle 1, ``Pr`` of cycle 2,
+  ``T0 = FBP - Pr``.
 
 A pick *covers* when ``low <= truth <= high``. The summary gives per quantity and method
 the number of records where the truth exists, how many picks were found, the coverage of
@@ -46,7 +47,7 @@ class Outcome:
     cycle : int or None
         Cycle (None for T0).
     quantity : str
-        ``"FCP"``, ``"ISIP"``, ``"FBP"``, ``"Pr"`` or ``"T0"``.
+        ``"FCP"``, ``"ISIP"``, ``"LOP"``, ``"FBP"``, ``"Pr"`` or ``"T0"``.
     method : str
         The pick's method (``"consensus"`` for the consensus FCP).
     truth : float
@@ -142,7 +143,7 @@ class StudyResult:
             k = (o.quantity, o.method)
             if k not in keys:
                 keys.append(k)
-        order = {"FCP": 0, "ISIP": 1, "FBP": 2, "Pr": 3, "T0": 4}
+        order = {"FCP": 0, "ISIP": 1, "LOP": 2, "FBP": 3, "Pr": 4, "T0": 5}
         keys.sort(key=lambda k: (order.get(k[0], 9), k[1] != "consensus", k[1]))
         rows = []
         for q, m in keys:
@@ -219,6 +220,8 @@ def evaluate_record(cr: ConstructedRecord, index: int = 0) -> list[Outcome]:
             add(k, "ISIP", isip, tr.isip[k - 1], scale)
         if k == 1 and c.get("FBP") is not None:
             add(k, "FBP", c.get("FBP"), tr.fbp, scale)
+        if k == 1 and c.get("LOP") is not None:
+            add(k, "LOP", c.get("LOP"), tr.lop, scale)
         if k == 2 and c.get("Pr") is not None:
             add(k, "Pr", c.get("Pr"), tr.reopening, scale)
     add(None, "T0", rp.t0, tr.t0, tr.t0)

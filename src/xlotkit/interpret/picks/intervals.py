@@ -47,6 +47,7 @@ __all__ = [
     "corner_profile",
     "correlation_inflation",
     "find_transition",
+    "onset_profile",
     "transition_span",
     "z_value",
 ]
@@ -342,6 +343,64 @@ def corner_profile(x, y, x0: float, half_width: float, *, level: float = LEVEL,
     best = int(np.argmin(arr[:, 0]))
     return (float(np.min(a - half)) + ym, float(np.max(a + half)) + ym,
             float(arr[best, 3]) * xs, float(np.max(arr[inside, 3])) * xs)
+
+
+def onset_profile(x, y, side: int, *, level: float = LEVEL, inflation: float = 1.0,
+                  powers=(1.0, 1.5, 2.0, 3.0), n_x0: int = 60
+                  ) -> tuple[float, float, float, float] | None:
+    """Profile-likelihood interval of where a curve starts to leave a straight line.
+
+    The data (a straight stretch followed by the departure) are fitted with
+    ``y = c0 + c1 x + side c2 (x - x0)_+^k``, ``c2 >= 0``: a line, and from ``x0`` on a
+    departure growing as a power ``k`` (1 a kink, 2 a gradual, parabolic bend). For each
+    ``x0`` on a grid over the data and each ``k`` the model is linear in ``(c0, c1, c2)``.
+    Every onset whose best misfit stays within ``SSE_min + chi2_1(level) s^2`` (``s^2``
+    from ``SSE_min``, inflated for correlated residuals) is admissible, and the interval
+    is the range of the line's value ``c0 + c1 x0`` at those onsets. A first departure
+    that grows slowly is detected late; this interval reaches back to where it may have
+    begun.
+
+    Parameters
+    ----------
+    x, y : array_like
+        The stretch and the departure, ``x`` increasing.
+    side : {-1, +1}
+        Whether the curve leaves below (-1) or above (+1) the line.
+
+    Returns
+    -------
+    (value_low, value_high, x0_low, x0_high) or None
+    """
+    from scipy.stats import chi2
+
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    n = x.size
+    if n < 8 or np.ptp(x) <= 0:
+        return None
+    xm, xs = float(x.mean()), float(np.ptp(x))
+    u = (x - xm) / xs
+    ym = float(y.mean())
+    yy = y - ym
+    grid = np.linspace(u[2], u[-3], n_x0)
+    rows = []
+    for k in powers:
+        for u0 in grid:
+            f = side * np.clip(u - u0, 0.0, None) ** k
+            X = np.column_stack([np.ones(n), u, f])
+            coef, *_ = np.linalg.lstsq(X, yy, rcond=None)
+            if coef[2] < 0:
+                coef, *_ = np.linalg.lstsq(X[:, :2], yy, rcond=None)
+                coef = np.array([coef[0], coef[1], 0.0])
+            r = yy - X @ coef
+            rows.append((float(r @ r), float(coef[0] + coef[1] * u0) + ym, u0))
+    arr = np.array(rows)
+    sse_min = float(arr[:, 0].min())
+    s2 = max(sse_min / max(n - 4, 1), 1e-300) * max(inflation, 1.0) ** 2
+    inside = arr[:, 0] <= sse_min + float(chi2.ppf(level, 1)) * s2
+    v, u0 = arr[inside, 1], arr[inside, 2]
+    return (float(v.min()), float(v.max()), float(u0.min() * xs + xm),
+            float(u0.max() * xs + xm))
 
 
 @dataclass(frozen=True)
