@@ -418,7 +418,8 @@ def _pump_curve(p_start: float, bend_at: float, asymptote: float, cw: float, q: 
     def p_of_v(v):
         v = np.asarray(v, float)
         lin = p_start + v / cw
-        bent = bend_at + a * (1.0 - np.exp(-(v - v_b) / (a * cw)))
+        # (np.where evaluates both branches: keep the unused one finite.)
+        bent = bend_at + a * (1.0 - np.exp(-np.clip(v - v_b, 0.0, None) / (a * cw)))
         return np.where(v <= v_b, lin, bent)
 
     def v_at(p):

@@ -207,7 +207,8 @@ def find_transition(u, x, y, pressure, u0: float, left: float, right: float, *,
     left, right : float
         Lengths in ``u`` of the data the method uses before and after the break.
     noise : float
-        One noise level of ``y``.
+        One noise level of ``y`` (floored by the tangents' residual scatter in their
+        windows).
 
     Returns
     -------
@@ -231,6 +232,9 @@ def find_transition(u, x, y, pressure, u0: float, left: float, right: float, *,
             break
         ra = y - (la[0] * x + la[1])
         rb = y - (lb[0] * x + lb[1])
+        # A departure smaller than the tangents' own misfit in their windows (the curvature
+        # of the decline there) is not beyond the noise.
+        nz = max(noise, float(np.std(ra[ma])), float(np.std(rb[mb])))
         inside = np.flatnonzero((u >= u0 - gl) & (u <= u0 + gr))
         if inside.size == 0:
             i_b = int(np.argmin(np.abs(u - u0)))
@@ -239,7 +243,7 @@ def find_transition(u, x, y, pressure, u0: float, left: float, right: float, *,
             i_b = int(inside[np.argmin(np.abs(u[inside] - u0))])
             bounds = (int(inside[0]), int(inside[-1]))
         corr = max(correlation_inflation(ra[ma]), correlation_inflation(rb[mb]))
-        span = transition_span(p, ra, rb, i_b, noise, smooth=smooth, bounds=bounds,
+        span = transition_span(p, ra, rb, i_b, nz, smooth=smooth, bounds=bounds,
                                correlation=corr)
         if span is None:
             return found
@@ -399,8 +403,17 @@ def onset_profile(x, y, side: int, *, level: float = LEVEL, inflation: float = 1
     s2 = max(sse_min / max(n - 4, 1), 1e-300) * max(inflation, 1.0) ** 2
     inside = arr[:, 0] <= sse_min + float(chi2.ppf(level, 1)) * s2
     v, u0 = arr[inside, 1], arr[inside, 2]
-    return (float(v.min()), float(v.max()), float(u0.min() * xs + xm),
-            float(u0.max() * xs + xm))
+    # The grid resolves the onset to one step: widen by a step along the line.
+    step = float(grid[1] - grid[0])
+    i_lo, i_hi = int(np.argmin(u0)), int(np.argmax(u0))
+    dv = 0.0
+    if u0[i_hi] > u0[i_lo]:
+        dv = abs(float(v[i_hi] - v[i_lo]) / float(u0[i_hi] - u0[i_lo])) * step
+    else:
+        c = np.polyfit(u, yy, 1)
+        dv = abs(float(c[0])) * step
+    return (float(v.min()) - dv, float(v.max()) + dv,
+            float((u0.min() - step) * xs + xm), float((u0.max() + step) * xs + xm))
 
 
 @dataclass(frozen=True)
