@@ -84,6 +84,10 @@ from xlotkit.record import PressureReference, Record
 from xlotkit.units import GRAVITY
 
 __all__ = [
+    "AFTER_CLOSURE",
+    "PRE_CLOSURE",
+    "DfitTruth",
+    "dfit_record",
     "LEAKOFF_MODELS",
     "ConstructedRecord",
     "ConstructedSpec",
@@ -703,3 +707,123 @@ def draw_spec(rng: np.random.Generator, seed: int | None = None, *,
         flowback=flowback, flowback_rate=u(5.0, 30.0) * _BAR / 60.0, gauge=gauge,
         noise=noise, resolution=res, dt=dt,
         seed=int(rng.integers(2**31)) if seed is None else seed)
+
+
+# ============================================================================ DFIT cases
+#: Pre-closure declines of :func:`dfit_record` (the G-function signatures).
+PRE_CLOSURE = ("normal", "pressure_dependent_leakoff", "tip_extension", "height_recession")
+#: After-closure declines of :func:`dfit_record`.
+AFTER_CLOSURE = ("linear", "radial", "exponential", "none")
+
+
+@dataclass(frozen=True)
+class DfitTruth:
+    """Truth of a constructed DFIT: closure, reservoir pressure, the decline's types."""
+
+    sigma_h: float
+    reservoir_pressure: float
+    isip: float
+    t_closure: float
+    t_pump_start: float
+    pre_closure: str
+    after_closure: str
+
+
+def dfit_record(*, pre: str = "normal", after: str = "radial", isip: float = 250e5,
+                sigma_h: float = 230e5, p_r: float = 180e5, t_pump: float = 600.0,
+                g_closure: float = 1.5, duration: float = 30.0, tau: float = 1500.0,
+                noise: float = 0.01e5, dt: float = 5.0, resolution: float = 0.0,
+                seed: int = 0) -> tuple[Record, Segmentation, DfitTruth]:
+    """A one-cycle DFIT by construction, with analytic declines before and after closure.
+
+    Pumping for ``t_pump`` seconds (well storage to the ISIP), then a shut-in. Before
+    closure (``G <= g_closure``, net pressure ``n = ISIP - sigma_h``) the pressure against
+    Nolte's G is
+
+    * ``normal``: ``ISIP - n G / G_c`` (Carter, constant area);
+    * ``pressure_dependent_leakoff``: ``ISIP - m G - h (1 - exp(-G / g1))``,
+      ``h = 0.3 n``, ``g1 = 0.15 G_c`` (extra leak-off early, at high net pressure);
+    * ``tip_extension``: ``ISIP - a ln(1 + G / g0) - b G``, ``g0 = 0.02 G_c``, half the net
+      pressure on each term (``G dP/dG = a G / (g0 + G) + b G``, a line above the origin);
+    * ``height_recession``: ``ISIP - m1 G - k G^2``, ``k = m1 / (2 G_c)`` (``|dP/dG|``
+      doubles to closure);
+
+    continuous at closure (``p = sigma_h`` at ``G_c``). After closure, with ``t`` the time
+    since pumping started and ``t_c`` that of closure,
+
+    * ``linear``: ``p = p_r + M F_L(t, 0.8 t_c)`` (Nolte's linear time function);
+    * ``radial``: ``p = p_r + M F_R(t, 0.8 t_c)``;
+
+      ``M`` such that ``p(t_c) = sigma_h``: the regime from an effective closure a little
+      earlier, so that the decline leaves closure with a finite slope and the analysis,
+      which uses the picked closure, meets the regime only late, as in a field record;
+    * ``exponential``: ``p = p_r + (sigma_h - p_r) exp(-(t - t_c) / tau)``;
+    * ``none``: the record ends at ``1.3 t_c`` (too short for any regime).
+
+    The record runs to ``duration`` times ``t_c``; noise and rounding as in
+    :class:`ConstructedSpec`. Bottom-hole gauge pressures [Pa].
+    """
+    from xlotkit.interpret.diagnostics.after_closure import nolte_linear, nolte_radial
+
+    if pre not in PRE_CLOSURE:
+        raise ValueError(f"pre {pre!r}: expected one of {PRE_CLOSURE}")
+    if after not in AFTER_CLOSURE:
+        raise ValueError(f"after {after!r}: expected one of {AFTER_CLOSURE}")
+    rng = np.random.default_rng(seed)
+    t0 = 60.0
+    n_net = isip - sigma_h
+    dtc = _dt_at_G(g_closure, t_pump)
+    ts = t0 + t_pump
+    tc = ts + dtc
+    t_end = t0 + (tc - t0) * (1.3 if after == "none" else duration)
+    t = np.arange(0.0, t_end, dt)
+    p = np.full(t.size, 100e5)
+    pump = (t >= t0) & (t < ts)
+    p[pump] = 100e5 + (isip - 100e5) * (t[pump] - t0) / t_pump
+    sh = t >= ts
+    G = _G(t[sh] - ts, t_pump)
+    gc = g_closure
+    if pre == "normal":
+        pre_p = isip - n_net * G / gc
+    elif pre == "pressure_dependent_leakoff":
+        h, g1 = 0.3 * n_net, 0.15 * gc
+        m = (n_net - h * (1.0 - math.exp(-gc / g1))) / gc
+        pre_p = isip - m * G - h * (1.0 - np.exp(-G / g1))
+    elif pre == "tip_extension":
+        g0 = 0.02 * gc
+        a = 0.5 * n_net / math.log(1.0 + gc / g0)
+        pre_p = isip - a * np.log1p(G / g0) - 0.5 * n_net / gc * G
+    else:
+        m1 = n_net / (1.5 * gc)
+        pre_p = isip - m1 * G - m1 / (2.0 * gc) * G ** 2
+    tt = t[sh] - t0
+    tcc = tc - t0
+    if after in ("linear", "none"):
+        tce = 0.8 * tcc
+        post = p_r + (sigma_h - p_r) * (nolte_linear(np.maximum(tt, tcc), tce)
+                                        / float(nolte_linear(tcc, tce)))
+    elif after == "radial":
+        tce = 0.8 * tcc
+        M = (sigma_h - p_r) / float(nolte_radial(tcc, tce))
+        post = p_r + M * nolte_radial(np.maximum(tt, tcc), tce)
+    else:
+        post = p_r + (sigma_h - p_r) * np.exp(-(np.maximum(tt, tcc) - tcc) / tau)
+    p[sh] = np.where(G <= gc, pre_p, post)
+    if noise > 0:
+        p = p + rng.normal(0.0, noise, p.size)
+    if resolution > 0:
+        p = np.round(p / resolution) * resolution
+    rate = np.where(pump, 0.5 / 60.0, 0.0)
+    vol = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))])
+    rec = Record(t=t, pressure=p, reference=PressureReference("bottomhole", 2000.0, False),
+                 rate=rate, volume=vol, meta={"constructed": True})
+    i0, i1 = int(np.searchsorted(t, t0)), int(np.searchsorted(t, ts))
+    phases = (Phase("idle", 0, i0, float(t[0]), float(t[i0 - 1])),
+              Phase("pump", i0, i1, float(t[i0]), float(t[i1 - 1]),
+                    pumped_m3=float(vol[i1 - 1]), peak_pressure=float(p[i0:i1].max())),
+              Phase("shut_in", i1, t.size, float(t[i1]), float(t[-1]),
+                    peak_pressure=float(p[i1:].max())))
+    cyc = Cycle(1, "lot", phases[1:], phases[1].t_start, phases[2].t_end,
+                float(p.max()), float(vol[-1]), 0.0, reason="constructed DFIT")
+    seg = Segmentation(phases, (cyc,), True, ("constructed DFIT",))
+    return rec, seg, DfitTruth(sigma_h, p_r, isip, tc, t0, pre, after)

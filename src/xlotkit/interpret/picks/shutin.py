@@ -540,17 +540,11 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
     of the decline (pressure-dependent leak-off, height recession) is not closure: with
     pressure-dependent leak-off closure is at the end of the hump, not where it starts.
 
-    The diagnosis compares ``|dP/dG|`` early in the decline (first third before closure) with
-    its value ``m`` just before closure, i.e. ``G dP/dG`` against the line ``m G`` through the
-    origin tangent to it at closure (Barree et al. 2009):
-
-    * ``normal``: early ``|dP/dG|`` within 10 % of ``m`` (on the line);
-    * ``pressure_dependent_leakoff``: early ``|dP/dG|`` > 1.1 m (``G dP/dG`` humps above the
-      line: leak-off faster at high pressure);
-    * ``height_recession_or_tip_extension``: early ``|dP/dG|`` < 0.9 m (``G dP/dG`` below the
-      line, concave upward: ``|dP/dG|`` grows as the decline goes on -- also the signature of
-      a constant-permeability wall leak, whose rate does not fall like Carter's);
-    * ``undetermined``: no closure or too short a decline before it.
+    The diagnosis (``details["diagnosis"]``) reads the shape of ``G dP/dG`` before closure
+    against the line ``m G`` through the origin tangent to it at closure (Barree et al.
+    2009): ``normal``, ``pressure_dependent_leakoff``, ``tip_extension``,
+    ``height_recession`` or ``undetermined`` -- the rule of
+    :mod:`xlotkit.interpret.diagnostics.gfunction`.
 
     Parameters
     ----------
@@ -583,29 +577,20 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
 
 
 def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
-    """Decline type from ``|dP/dG|`` early in the decline against its value at closure."""
-    d = pick.details
-    if not pick.found or "slope" not in d:
+    """Decline type from the shape of ``|dP/dG|`` before closure: the rule of
+    :mod:`xlotkit.interpret.diagnostics.gfunction` (one rule for the pick and the
+    diagnostics)."""
+    from xlotkit.interpret.diagnostics.gfunction import diagnose_curves
+
+    if not pick.found or pick.t is None:
         return "undetermined", "no closure on the G plot"
-    m = -float(d["slope"])
-    if not m > 0:
-        return "undetermined", "pressure not declining on the G plot"
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
-    j_end = int(np.searchsorted(sh.t[sl], pick.t))
     dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
                         min_points=5)
-    early = dpdg[: max(j_end // 3, 0)]
-    early = early[np.isfinite(early)]
-    if early.size < 5:
-        return "undetermined", "too short a decline before closure"
-    ratio = float(np.median(-early)) / m
-    if ratio > 1.1:
-        return "pressure_dependent_leakoff", f"early G dP/dG above the line ({ratio:.2f} m)"
-    if ratio < 0.9:
-        return ("height_recession_or_tip_extension",
-                f"early G dP/dG below the line ({ratio:.2f} m)")
-    return "normal", f"early G dP/dG on the line ({ratio:.2f} m)"
+    g_c = float(np.interp(pick.t, sh.t[sl], G))
+    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c)
+    return diagnosis, why
 
 
 # ===================================================================== tangent
