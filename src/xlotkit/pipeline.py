@@ -374,7 +374,8 @@ def interpret_record(record: Record, *, options=None,
 
 
 def write_interpretation(interp: Interpretation, out_dir: str | Path) -> dict[str, Path]:
-    """Write the pick report (CSV, JSON, plots), the record plot and the stress polygon.
+    """Write the pick report (CSV, JSON, plots, ``report.pdf``), the record plot and the
+    stress polygon.
 
     ``out_dir`` is used as given if empty or new, otherwise a fresh sibling is taken (see
     :func:`new_output_dir`): earlier results are never overwritten.
@@ -383,18 +384,18 @@ def write_interpretation(interp: Interpretation, out_dir: str | Path) -> dict[st
     from xlotkit.interpret.report import write_pick_report
 
     target = new_output_dir(out_dir)
-    paths = write_pick_report(interp.picks, target, stress=interp.stress.to_dict(),
-                              if_exists="error")
-    paths["record"] = target / "record.png"
-    plot_record(interp.record, interp.picks.segmentation, path=paths["record"])
+    extra = {}
     s = interp.stress
     if s.available and s.sigma_H and s.sv and s.pore_pressure is not None:
         from xlotkit.interpret.plots.stress import plot_stress_polygon
 
         est = s.estimates if s.estimates is not None else (s.sigma_h,
                                                            next(iter(s.sigma_H.values()))["value"])
-        paths["stress_polygon"] = target / "stress_polygon.png"
-        plot_stress_polygon(s.sv, s.pore_pressure, s.mu, est, path=paths["stress_polygon"])
+        extra["stress_polygon"] = plot_stress_polygon(s.sv, s.pore_pressure, s.mu, est)
+    paths = write_pick_report(interp.picks, target, stress=s.to_dict(), if_exists="error",
+                              diagnostics=interp.diagnostics, pdf=True, extra_figures=extra)
+    paths["record"] = target / "record.png"
+    plot_record(interp.record, interp.picks.segmentation, path=paths["record"])
     return paths
 
 

@@ -286,7 +286,7 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
         late = s[-max(5, s.size // 3):]
         dslope = float(np.nanmedian(late))
     base["derivative_slope"] = dslope
-    span = t[-1] / max(t_c - t0, 1e-9) if t_c > t0 else float("inf")
+    span = (t[-1] - t0) / max(t_c - t0, 1e-9)
     lnd = np.log(dta)
     for regime, F, ref in (("radial", FR, -1.0), ("linear", FL, -0.5)):
         # dp/dF as the ratio of log-time-windowed slopes (F is steep near closure).

@@ -265,8 +265,8 @@ def find_transition(u, x, y, pressure, u0: float, left: float, right: float, *,
 
 
 def corner_profile(x, y, x0: float, half_width: float, *, level: float = LEVEL,
-                   inflation: float = 1.0, n_x0: int = 41, n_c: int = 14
-                   ) -> tuple[float, float, float, float] | None:
+                   inflation: float = 1.0, n_x0: int = 41, n_c: int = 14,
+                   max_bend: float = 0.5) -> tuple[float, float, float, float] | None:
     """Profile-likelihood interval of the corner of two lines joined by a smooth bend.
 
     The data near a break are fitted with the smooth hinge
@@ -274,7 +274,9 @@ def corner_profile(x, y, x0: float, half_width: float, *, level: float = LEVEL,
     ``y = a + (b -/+ d)(x - x0)`` that meet at ``(x0, a)``, joined by a bend of width
     ``~2c`` (``c = 0`` is the sharp hinge). For fixed ``(x0, c)`` the model is linear in
     ``(a, b, d)``; over a grid of ``x0`` (``x0 -/+ half_width``) and ``c`` (0 and up to
-    ``half_width``) the residual sum of squares ``SSE(x0, c)`` and the least-squares
+    ``max_bend half_width``: at least part of each side of the window lies on its
+    asymptote, else the lines are not measured at all) the residual sum of squares
+    ``SSE(x0, c)`` and the least-squares
     corner ``a(x0, c)`` with its unit variance ``v = [(X^T X)^-1]_aa`` are computed. The
     interval is every corner value ``a`` with
     ``min over (x0, c) of SSE(x0, c, a) <= SSE_min + chi2_1(level) s^2``, i.e. the union of
@@ -319,7 +321,7 @@ def corner_profile(x, y, x0: float, half_width: float, *, level: float = LEVEL,
     ym = float(np.mean(y))
     yy = y - ym
     g0 = np.linspace(-1.0, 1.0, n_x0)
-    gc = np.concatenate([[0.0], np.geomspace(0.01, 1.0, n_c - 1)])
+    gc = np.concatenate([[0.0], np.geomspace(0.01, 1.0, n_c - 1)]) * max_bend
     res = []
     for a0 in g0:
         du = u - a0

@@ -458,7 +458,10 @@ def _shutin_budget(sh: _Shut, brk: _Break, x: np.ndarray, value: float, se: floa
     hw = 0.5 * float(np.ptp(x[near])) if near.sum() >= 8 else 0.0
     cp = corner_profile(x[near], p[near], x0, hw, inflation=infl) if hw > 0 else None
     if cp is not None:
-        extra.append(("corner fit", cp[0], cp[1]))
+        # Closure lies inside the decline (as every pick is checked, _inside).
+        lo_p = float(np.min(p)) - 3.0 * sh.sigma
+        hi_p = sh.isip + 3.0 * sh.sigma
+        extra.append(("corner fit", min(max(cp[0], lo_p), value), max(min(cp[1], hi_p), value)))
     return budget(value, stderr=se, inflation=infl, trials=trials,
                   transition=tr, resolution=resolution, extra=extra)
 
