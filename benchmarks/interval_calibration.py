@@ -14,7 +14,7 @@ Usage::
 Writes ``OUT/intervals-table.md`` (the table pasted into ``docs/intervals.md``),
 ``OUT/intervals-coverage.png`` (coverage against width: each interval scaled about its
 value by a factor from 0.25 to 3, so the stated interval is the point at factor 1) and
-``OUT/intervals-outcomes.json`` (every pick against its truth). Deterministic for a seed.
+with ``--outcomes FILE`` every pick against its truth as JSON. Deterministic for a seed.
 Existing files are not overwritten (a numbered sibling name is used instead).
 """
 
@@ -111,6 +111,8 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=300, help="number of records (default 300)")
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--out", type=Path, default=Path("docs"))
+    ap.add_argument("--outcomes", type=Path, default=None,
+                    help="also write every pick against its truth to this JSON file")
     args = ap.parse_args(argv)
     from tqdm import tqdm
 
@@ -127,7 +129,12 @@ def main(argv=None) -> int:
     p_tab.write_text(head + table + "\n")
     p_fig = _free(args.out / "intervals-coverage.png")
     figure(res, p_fig)
-    p_json = _free(args.out / "intervals-outcomes.json")
+    written = [p_tab, p_fig]
+    if args.outcomes is None:
+        print(head + table)
+        print("wrote " + ", ".join(map(str, written)))
+        return 0
+    p_json = _free(args.outcomes)
     p_json.write_text(json.dumps(
         [{"record": o.record, "cycle": o.cycle, "quantity": o.quantity, "method": o.method,
           "truth_bar": o.truth / _BAR,

@@ -127,7 +127,7 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
     for m in FCP_METHODS:
         p = run.get(m)
         if p is None:
-            methods[m] = {"fcp_bar": None, "low_bar": None, "high_bar": None,
+            methods[m] = {"fcp_bar": None, "low_bar": None, "high_bar": None, "level": None,
                           "quality": "none", "message": "not run"}
         else:
             methods[m] = {"fcp_bar": _value_bar(p), "low_bar": _bar(p.low) if p.found else None,

@@ -256,6 +256,9 @@ class _TwoLines:
     right: LineFit
     masks: tuple[np.ndarray, np.ndarray]
     trials: tuple[tuple[float, float], ...]  # (x*, y*) over perturbed windows
+    # The first n_graded trials are the margin/trim variants that grade the quality; the
+    # rest (tangents next to the break) widen only the interval.
+    n_graded: int = 10**9
 
 
 def _line_or_none(x: np.ndarray, y: np.ndarray, m: np.ndarray) -> LineFit | None:
@@ -291,6 +294,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     n = x.size
     if n < 2 * _MIN_POINTS:
         return f"too few flowback samples ({n}) for two straight lines"
+    n_graded_masks = 10**9
     if tangents is not None:
         (a0, a1), (b0, b1) = tangents
         base_masks = [((u >= a0) & (u <= a1), (u >= b0) & (u <= b1))]
@@ -327,6 +331,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
         trials_masks.append(_masks_around(u, u0, 0.0, 0.0))
         # Tangents close to the break (the last / first 30 % of each side): on a curved
         # decline they, not the long secants, are the lines that meet at the break.
+        n_graded_masks = len(trials_masks)
         trials_masks += [_masks_around(u, u0, m, tr) for m, tr in ((0.05, 0.65), (0.10, 0.6))]
 
     best = None
@@ -351,14 +356,17 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     if not (lo <= xs <= hi):
         return "the tangents intersect outside the flowback data"
     trials = []
-    for tl, tr in trials_masks:
+    n_graded = 0
+    for k, (tl, tr) in enumerate(trials_masks):
         fl, fr = _line_or_none(x, y, tl), _line_or_none(x, y, tr)
         if fl is None or fr is None:
             continue
         xi, _, yi, _ = intersect(fl, fr)
         if np.isfinite(xi) and lo <= xi <= hi:
             trials.append((xi, yi))
-    return _TwoLines(xs, xse, ys, yse, left, right, (ml, mr), tuple(trials))
+            if k < n_graded_masks:
+                n_graded += 1
+    return _TwoLines(xs, xse, ys, yse, left, right, (ml, mr), tuple(trials), n_graded)
 
 
 def _quality(tl: _TwoLines, value: float, low: float, high: float, ratio: float) -> str:
@@ -466,7 +474,7 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
     # d p / d y = 2 y for the squared mapping; offsets are treated as exact.
     se_p = 2.0 * abs(res.y) * res.y_se
     trial_values = [to_record(xi, yi) for xi, yi in res.trials]
-    spread = window_spread(trial_values)
+    spread = window_spread(trial_values[:res.n_graded])
     t_spread = window_spread([xi for xi, _ in res.trials])
     ratio = res.right.slope / res.left.slope
     q = _quality(res, value, *_fit_width(value, se_p, spread), ratio)
@@ -532,7 +540,7 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
         return Pick.not_found(name, method, res, window=win, details=details)
     value = float(res.y)
     trial_values = [yi for _, yi in res.trials]
-    spread = window_spread(trial_values)
+    spread = window_spread(trial_values[:res.n_graded])
     s_open, s_closed = -res.left.slope, -res.right.slope
     ratio = s_closed / s_open if s_open else np.inf
     q = _quality(res, value, *_fit_width(value, res.y_se, spread), ratio)
