@@ -78,6 +78,13 @@ def test_cli_pick_json_schema_and_report_folder(lumped_log, tmp_path):
         truth["sigma_h"] / 1e5, rel=0.02)
     assert obj["stress"]["sigma_h_bar"] == pytest.approx(truth["sigma_h"] / 1e5, rel=0.02)
     assert (out / "picks.json").is_file() and (out / "overview.png").is_file()
+    # One multi-page PDF report: overview, every diagnostic plot, the table and the stress
+    # page (a PDF with one page object per figure).
+    pdf = (out / "report.pdf").read_bytes()
+    assert pdf[:5] == b"%PDF-"
+    n_png = len(list(out.glob("*.png"))) - 1          # record.png is not in the report
+    assert pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") >= n_png + 2
+    assert c1["fcp_level"] == 0.9 and obj["diagnostics"] is not None
     # A second run must not touch the first report.
     before = (out / "picks.csv").read_bytes()
     r2 = CliRunner().invoke(main, ["pick", str(path), "--out", str(out), "--method", "sqrt_t"])

@@ -372,7 +372,9 @@ def _pick_table(label: str, interp) -> str:
                      + (f"  stiffness {c.stiffness / 1e5:.0f} bar/m3" if c.stiffness else ""))
         f = c.fcp
         if f.found:
-            lines.append(f"    FCP {f.value / 1e5:.1f} bar [{(f.low or f.value) / 1e5:.1f} - "
+            lv = f"{100 * f.level:.0f} % " if f.level is not None else ""
+            lines.append(f"    FCP {f.value / 1e5:.1f} bar, {lv}interval "
+                         f"[{(f.low or f.value) / 1e5:.1f} - "
                          f"{(f.high or f.value) / 1e5:.1f}] ({f.quality}; "
                          f"{f.details.get('rule', '')})")
         else:
@@ -381,7 +383,8 @@ def _pick_table(label: str, interp) -> str:
             if p.found:
                 lo = p.low if p.low is not None else p.value
                 hi = p.high if p.high is not None else p.value
-                lines.append(f"      {m:<16} {p.value / 1e5:8.1f} bar [{lo / 1e5:.1f} - "
+                lv = f"{100 * p.level:.0f} %" if p.level is not None else "range"
+                lines.append(f"      {m:<16} {p.value / 1e5:8.1f} bar {lv} [{lo / 1e5:.1f} - "
                              f"{hi / 1e5:.1f}] {p.quality}")
             else:
                 lines.append(f"      {m:<16}        - {p.message[:70]}")
@@ -392,7 +395,8 @@ def _pick_table(label: str, interp) -> str:
                      f"[{d['sigma_h_low_bar']:.1f} - {d['sigma_h_high_bar']:.1f}] "
                      f"({d['sigma_h_emw_sg']:.3f} sg)")
         if d["t0_bar"] is not None:
-            lines.append(f"    T0 = FBP - Pr = {d['t0_bar']:.1f} bar")
+            lines.append(f"    T0 = FBP - Pr = {d['t0_bar']:.1f} bar [{d['t0_low_bar']:.1f} - "
+                         f"{d['t0_high_bar']:.1f}]")
         for eq, v in d["sigma_H"].items():
             if v["value_bar"] is not None:
                 lines.append(f"    sigma_H (Eq. {eq}) {v['value_bar']:.1f} bar "
@@ -403,6 +407,11 @@ def _pick_table(label: str, interp) -> str:
             lines.append(f"    assumed: {a}")
     else:
         lines.append(f"  stress: {s.message}")
+    if interp.diagnostics is not None:
+        for cd in interp.diagnostics.cycles:
+            if cd.g_function is not None:
+                lines.append(f"  cycle {cd.cycle} {cd.g_function.report()}")
+            lines.append(f"  cycle {cd.cycle} {cd.after_closure.report()}")
     return "\n".join(lines)
 
 
@@ -410,7 +419,7 @@ def _pick_table(label: str, interp) -> str:
 @click.argument("logs", nargs=-1, required=True, metavar="LOG [LOG ...]")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--out", "out", type=click.Path(file_okay=False), default=None, metavar="DIR",
-              help="Write picks.csv, picks.json and annotated plots into DIR "
+              help="Write picks.csv, picks.json, annotated plots and report.pdf into DIR "
                    "(a fresh DIR-2, DIR-3... if DIR already holds results).")
 @click.option("--window", "windows", multiple=True, metavar="[CYCLE:]NAME=T0:T1",
               help="Override an automatic window (s from the record start); NAME is a pick "
@@ -475,7 +484,7 @@ def pick_cmd(logs, as_json, out, windows, methods, tvd, gauge_tvd, mud_density,
             paths = write_interpretation(interp, target)
             written.append(paths["dir"])
     if as_json:
-        objs = [picks_to_dict(i.picks, i.stress.to_dict()) for _, i in results]
+        objs = [picks_to_dict(i.picks, i.stress.to_dict(), i.diagnostics) for _, i in results]
         obj = objs[0] if len(objs) == 1 else {"logs": objs}
         click.echo(json.dumps(obj, indent=2, allow_nan=False))
     else:

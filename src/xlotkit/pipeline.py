@@ -113,6 +113,10 @@ class StressSummary:
         Per equation (``"C.19"``...) the estimate ``{"value", "low", "high", "message"}`` [Pa].
     pore_pressure, sv : float or None
         Used values [Pa].
+    pore_pressure_low, pore_pressure_high : float or None
+        Interval of the pore pressure [Pa] when it came from the after-closure analysis.
+    pore_pressure_source : {"default", "given", "after-closure"}
+        Where the pore pressure came from.
     mu : float
     regime : str or None
         Faulting regime of the estimate in the stress polygon.
@@ -139,6 +143,9 @@ class StressSummary:
     assumptions: tuple[str, ...] = ()
     source_cycle: int | None = None
     estimates: Any = None
+    pore_pressure_low: float | None = None
+    pore_pressure_high: float | None = None
+    pore_pressure_source: str = "default"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict in field units (bar, m, sg)."""
@@ -165,6 +172,9 @@ class StressSummary:
                             "high_bar": bar(v["high"]), "message": v["message"]}
                         for k, v in self.sigma_H.items()},
             "pore_pressure_bar": bar(self.pore_pressure),
+            "pore_pressure_low_bar": bar(self.pore_pressure_low),
+            "pore_pressure_high_bar": bar(self.pore_pressure_high),
+            "pore_pressure_source": self.pore_pressure_source,
             "sv_bar": bar(self.sv),
             "mu": self.mu,
             "regime": self.regime,
@@ -195,7 +205,8 @@ def _gauge(record: Record, p: float | None) -> float | None:
     return p - ATMOSPHERE_PA if record.reference.absolute else p
 
 
-def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressSummary:
+def estimate_stress(record_picks, inputs: StressInputs | None = None,
+                    diagnostics=None) -> StressSummary:
     """Turn a record's picks into sigma_h, T0, sigma_H and a faulting regime.
 
     sigma_h is the consensus FCP of the most trusted test cycle (:func:`_fcp_rank`: flowback
@@ -205,10 +216,17 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressS
     from Eq. C.19 (reopening) with Monte-Carlo intervals; the estimate is placed in the stress
     polygon for ``mu``.
 
+    The pore pressure is, in order: the one given in ``inputs``; the reservoir pressure of
+    the after-closure analysis (``diagnostics``, :func:`xlotkit.interpret.diagnostics.
+    diagnose_record`) moved to the target depth, with its interval (a triangular
+    distribution in the Monte-Carlo of sigma_H); else hydrostatic with 1.03 sg. The
+    assumptions say which, and why the analysis did not give one.
+
     Parameters
     ----------
     record_picks : RecordPicks
     inputs : StressInputs, optional
+    diagnostics : RecordDiagnostics, optional
 
     Returns
     -------
@@ -266,9 +284,31 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressS
     sh_hi = at_depth(fcp.high if fcp.high is not None else fcp.value)
 
     p0 = inputs.pore_pressure
+    p0_lo = p0_hi = None
+    p0_src = "given"
+    p0_u = None
     if p0 is None:
-        p0 = 1030.0 * GRAVITY * target
-        assumptions.append("pore pressure hydrostatic, 1.03 sg")
+        best = diagnostics.reservoir_pressure if diagnostics is not None else None
+        if best is not None:
+            cyc, ac = best
+            p0, p0_lo, p0_hi = at_depth(ac.reservoir_pressure), at_depth(ac.low), \
+                at_depth(ac.high)
+            p0_src = "after-closure"
+            name = "exponential approach" if ac.regime == "exponential" else \
+                f"{ac.regime} flow"
+            assumptions.append(
+                f"pore pressure {p0 / _BAR:.1f} bar [{p0_lo / _BAR:.1f} - {p0_hi / _BAR:.1f}] "
+                f"({100 * ac.level:.0f} % interval) at target depth from the after-closure "
+                f"analysis of cycle {cyc} ({name}), replacing the default 1.03 sg gradient")
+            p0_u = st.Uncertain(p0, low=min(p0_lo, p0), high=max(p0_hi, p0))
+        else:
+            p0 = 1030.0 * GRAVITY * target
+            p0_src = "default"
+            why = ""
+            if diagnostics is not None and diagnostics.cycles:
+                why = "; " + "; ".join(f"cycle {c.cycle}: {c.after_closure.message}"
+                                       for c in diagnostics.cycles)
+            assumptions.append("pore pressure hydrostatic, 1.03 sg" + why)
     sv = inputs.sv
     if sv is None:
         sv = 2300.0 * GRAVITY * target
@@ -287,7 +327,8 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressS
                             high=at_depth(pr.high if pr.high is not None else pr.value))
         sh_u = st.Uncertain(sh, low=min(sh_lo, sh), high=max(sh_hi, sh))
         try:
-            estimates = st.sigma_H_estimates(sh_u, p0=p0, pr=pr_u)
+            estimates = st.sigma_H_estimates(sh_u, p0=p0_u if p0_u is not None else p0,
+                                             pr=pr_u)
             for eq, est in estimates.items():
                 sigma_H[eq] = {"value": est.value, "low": est.low, "high": est.high,
                                "message": est.message}
@@ -304,6 +345,7 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None) -> StressS
         True, "", target, sh, sh_lo, sh_hi,
         t0v, t0.low if t0.found else None, t0.high if t0.found else None,
         sigma_H, p0, sv, inputs.mu, regime, tuple(assumptions), src.index, estimates,
+        p0_lo, p0_hi, p0_src,
     )
 
 
@@ -315,21 +357,25 @@ class Interpretation:
     record: Record
     picks: Any
     stress: StressSummary
+    diagnostics: Any = None
 
 
 def interpret_record(record: Record, *, options=None,
                      stress_inputs: StressInputs | None = None) -> Interpretation:
-    """Segment, pick and estimate stress for one record."""
+    """Segment, pick, diagnose the shut-ins and estimate stress for one record."""
+    from xlotkit.interpret.diagnostics import diagnose_record
     from xlotkit.interpret.phases import segment
     from xlotkit.interpret.picks.core import pick_record
 
     seg = segment(record)
     rp = pick_record(record, seg, options=options)
-    return Interpretation(record, rp, estimate_stress(rp, stress_inputs))
+    diag = diagnose_record(rp)
+    return Interpretation(record, rp, estimate_stress(rp, stress_inputs, diag), diag)
 
 
 def write_interpretation(interp: Interpretation, out_dir: str | Path) -> dict[str, Path]:
-    """Write the pick report (CSV, JSON, plots), the record plot and the stress polygon.
+    """Write the pick report (CSV, JSON, plots, ``report.pdf``), the record plot and the
+    stress polygon.
 
     ``out_dir`` is used as given if empty or new, otherwise a fresh sibling is taken (see
     :func:`new_output_dir`): earlier results are never overwritten.
@@ -338,18 +384,18 @@ def write_interpretation(interp: Interpretation, out_dir: str | Path) -> dict[st
     from xlotkit.interpret.report import write_pick_report
 
     target = new_output_dir(out_dir)
-    paths = write_pick_report(interp.picks, target, stress=interp.stress.to_dict(),
-                              if_exists="error")
-    paths["record"] = target / "record.png"
-    plot_record(interp.record, interp.picks.segmentation, path=paths["record"])
+    extra = {}
     s = interp.stress
     if s.available and s.sigma_H and s.sv and s.pore_pressure is not None:
         from xlotkit.interpret.plots.stress import plot_stress_polygon
 
         est = s.estimates if s.estimates is not None else (s.sigma_h,
                                                            next(iter(s.sigma_H.values()))["value"])
-        paths["stress_polygon"] = target / "stress_polygon.png"
-        plot_stress_polygon(s.sv, s.pore_pressure, s.mu, est, path=paths["stress_polygon"])
+        extra["stress_polygon"] = plot_stress_polygon(s.sv, s.pore_pressure, s.mu, est)
+    paths = write_pick_report(interp.picks, target, stress=s.to_dict(), if_exists="error",
+                              diagnostics=interp.diagnostics, pdf=True, extra_figures=extra)
+    paths["record"] = target / "record.png"
+    plot_record(interp.record, interp.picks.segmentation, path=paths["record"])
     return paths
 
 

@@ -56,7 +56,7 @@ def test_json_schema_keys_nulls_and_values(record_picks):
     assert c["reopening_bar"] is None
     assert set(c["methods"]) == set(FCP_METHODS)
     for m in c["methods"].values():
-        assert set(m) == {"fcp_bar", "low_bar", "high_bar", "quality", "message"}
+        assert set(m) == {"fcp_bar", "low_bar", "high_bar", "level", "quality", "message"}
     truth = (100 * BAR + fb.RHO_G_H) / BAR
     assert c["fcp_bar"] == pytest.approx(truth, rel=5e-3)
     assert c["fcp_low_bar"] <= c["fcp_bar"] <= c["fcp_high_bar"]
@@ -73,8 +73,8 @@ def test_json_methods_not_run_are_null():
                      options=PickOptions(methods=("flowback_sqrt_p",)))
     c = picks_to_dict(rp)["cycles"][0]
     assert c["methods"]["flowback_p_v"] == {"fcp_bar": None, "low_bar": None,
-                                            "high_bar": None, "quality": "none",
-                                            "message": "not run"}
+                                            "high_bar": None, "level": None,
+                                            "quality": "none", "message": "not run"}
 
 
 def test_stress_objects_are_serialised(record_picks):

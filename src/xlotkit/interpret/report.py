@@ -13,22 +13,31 @@ JSON schema (``picks.json``)
       "reference": str,                     # where the pressure was measured
       "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
       "consistency": {"fcp_mean_bar", "fcp_spread_bar", "fcp_relative_spread",
-                      "t0_bar", "t0_low_bar", "t0_high_bar", "t0_message",
+                      "t0_bar", "t0_low_bar", "t0_high_bar", "t0_level", "t0_message",
                       "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change"},
       "cycles": [
         {"index": int, "kind": str, "reference": str, "t_start_s": float, "t_end_s": float,
          "lop_bar", "fbp_bar", "reopening_bar", "fpp_bar", "isip_bar": float | null,
-         "fcp_bar", "fcp_low_bar", "fcp_high_bar": float | null,
+         "fcp_bar", "fcp_low_bar", "fcp_high_bar", "fcp_level": float | null,
          "fcp_quality": str, "fcp_rule": str, "fcp_message": str,
          "stiffness_bar_per_m3", "stiffness_stderr_bar_per_m3": float | null,
-         "methods": {<every FCP method>: {"fcp_bar", "low_bar", "high_bar": float | null,
-                                          "quality": str, "message": str}},
-         "picks": [{"name", "method", "value_bar", "low_bar", "high_bar", "t_s",
+         "methods": {<every FCP method>: {"fcp_bar", "low_bar", "high_bar", "level":
+                                          float | null, "quality": str, "message": str}},
+         "picks": [{"name", "method", "value_bar", "low_bar", "high_bar", "level", "t_s",
                     "quality", "message"}, ...],
          "notes": [str, ...]}
       ],
+      "diagnostics": [{"cycle", "g_function": {"diagnosis", "reason", "g_closure", "m_bar"},
+                       "flow_regimes": [{"name", "slope", "measured", "dt_start_s",
+                                         "dt_end_s"}],
+                       "after_closure": {"reached", "regime", "message",
+                                         "reservoir_pressure_bar", "low_bar", "high_bar",
+                                         "level"}}] | null,
       "stress": {...} | null
     }
+
+``level`` is the nominal coverage of ``[low, high]`` (0.9), null where the interval states
+none.
 
 Values that were not picked (or are NaN) are ``null``. FCP methods that were not run for a
 cycle appear in ``methods`` with null values, quality ``"none"`` and message ``"not run"``.
@@ -107,8 +116,8 @@ def _jsonable(obj: Any) -> Any:
 
 def _pick_row(p: Pick) -> dict[str, Any]:
     return {"name": p.name, "method": p.method, "value_bar": _bar(p.value),
-            "low_bar": _bar(p.low), "high_bar": _bar(p.high), "t_s": _num(p.t),
-            "quality": p.quality, "message": p.message}
+            "low_bar": _bar(p.low), "high_bar": _bar(p.high), "level": _num(p.level),
+            "t_s": _num(p.t), "quality": p.quality, "message": p.message}
 
 
 def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
@@ -118,11 +127,12 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
     for m in FCP_METHODS:
         p = run.get(m)
         if p is None:
-            methods[m] = {"fcp_bar": None, "low_bar": None, "high_bar": None,
+            methods[m] = {"fcp_bar": None, "low_bar": None, "high_bar": None, "level": None,
                           "quality": "none", "message": "not run"}
         else:
             methods[m] = {"fcp_bar": _value_bar(p), "low_bar": _bar(p.low) if p.found else None,
                           "high_bar": _bar(p.high) if p.found else None,
+                          "level": _num(p.level) if p.found else None,
                           "quality": p.quality, "message": p.message}
     return {
         "index": cp.index,
@@ -138,6 +148,7 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
         "fcp_bar": _value_bar(fcp),
         "fcp_low_bar": _bar(fcp.low) if fcp.found else None,
         "fcp_high_bar": _bar(fcp.high) if fcp.found else None,
+        "fcp_level": _num(fcp.level) if fcp.found else None,
         "fcp_quality": fcp.quality,
         "fcp_rule": str(fcp.details.get("rule", "")),
         "fcp_message": fcp.message,
@@ -149,7 +160,28 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
     }
 
 
-def picks_to_dict(record_picks: RecordPicks, stress: Any = None) -> dict[str, Any]:
+def _diagnostics_dict(diagnostics) -> list[dict[str, Any]]:
+    out = []
+    for c in diagnostics.cycles:
+        g, ll, ac = c.g_function, c.loglog, c.after_closure
+        out.append({
+            "cycle": c.cycle,
+            "g_function": None if g is None else {
+                "diagnosis": g.diagnosis, "reason": g.reason,
+                "g_closure": _num(g.g_closure), "m_bar": _bar(g.m)},
+            "flow_regimes": [] if ll is None else [
+                {"name": r.name, "slope": r.slope, "measured": r.measured,
+                 "dt_start_s": r.dt_start, "dt_end_s": r.dt_end} for r in ll.regimes],
+            "after_closure": {
+                "reached": ac.reached, "regime": ac.regime, "message": ac.message,
+                "reservoir_pressure_bar": _bar(ac.reservoir_pressure),
+                "low_bar": _bar(ac.low), "high_bar": _bar(ac.high), "level": _num(ac.level)},
+        })
+    return out
+
+
+def picks_to_dict(record_picks: RecordPicks, stress: Any = None,
+                  diagnostics: Any = None) -> dict[str, Any]:
     """The JSON report of a record's picks (schema in the module docstring).
 
     Parameters
@@ -179,11 +211,13 @@ def picks_to_dict(record_picks: RecordPicks, stress: Any = None) -> dict[str, An
             "t0_bar": _value_bar(t0),
             "t0_low_bar": _bar(t0.low) if t0.found else None,
             "t0_high_bar": _bar(t0.high) if t0.found else None,
+            "t0_level": _num(t0.level) if t0.found else None,
             "t0_message": t0.message,
             "stiffness_slope_bar_per_m3_per_cycle": _bar(k.stiffness_slope),
             "stiffness_relative_change": _num(k.stiffness_relative_change),
         },
         "cycles": [_cycle_dict(cp) for cp in record_picks.cycles],
+        "diagnostics": None if diagnostics is None else _diagnostics_dict(diagnostics),
         "stress": None if stress is None else _jsonable(stress),
     }
     return out
@@ -195,8 +229,9 @@ def picks_table(record_picks: RecordPicks):
     Returns
     -------
     pandas.DataFrame
-        Columns ``cycle, kind, reference, name, method, value_bar, low_bar, high_bar, t_s,
-        t_min, window_start_s, window_end_s, quality, message``; missing values NaN.
+        Columns ``cycle, kind, reference, name, method, value_bar, low_bar, high_bar, level,
+        t_s, t_min, window_start_s, window_end_s, quality, message``; missing values NaN
+        (``level`` NaN where the interval states none).
     """
     import pandas as pd
 
@@ -209,14 +244,15 @@ def picks_table(record_picks: RecordPicks):
                 "name": p.name, "method": p.method,
                 "value_bar": _bar(p.value), "low_bar": _bar(p.low) if p.found else None,
                 "high_bar": _bar(p.high) if p.found else None,
+                "level": _num(p.level) if p.found else None,
                 "t_s": _num(p.t), "t_min": None if p.t is None else float(p.t) / 60.0,
                 "window_start_s": _num(w[0]), "window_end_s": _num(w[1]),
                 "quality": p.quality, "message": p.message,
             })
     cols = ["cycle", "kind", "reference", "name", "method", "value_bar", "low_bar", "high_bar",
-            "t_s", "t_min", "window_start_s", "window_end_s", "quality", "message"]
+            "level", "t_s", "t_min", "window_start_s", "window_end_s", "quality", "message"]
     df = pd.DataFrame(rows, columns=cols)
-    for c in ("value_bar", "low_bar", "high_bar", "t_s", "t_min", "window_start_s",
+    for c in ("value_bar", "low_bar", "high_bar", "level", "t_s", "t_min", "window_start_s",
               "window_end_s"):
         df[c] = pd.to_numeric(df[c], errors="coerce")
     return df
@@ -245,8 +281,10 @@ def _target_dir(out_dir: Path, names, if_exists: str) -> Path:
 
 def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress: Any = None,
                       plots: bool = True,
-                      if_exists: Literal["new", "error"] = "new") -> dict[str, Path]:
-    """Write ``picks.csv``, ``picks.json`` and the plots (PNG) of a record's picks.
+                      if_exists: Literal["new", "error"] = "new", diagnostics: Any = None,
+                      pdf: bool = False, extra_figures: Mapping[str, Any] | None = None
+                      ) -> dict[str, Path]:
+    """Write ``picks.csv``, ``picks.json``, the plots (PNG) and optionally ``report.pdf``.
 
     Parameters
     ----------
@@ -260,6 +298,14 @@ def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress:
     if_exists : {"new", "error"}
         When ``out_dir`` already holds a report: write into the first free sibling
         ``<out_dir>-2``, ``-3``, ... (default) or raise :class:`FileExistsError`.
+    diagnostics : RecordDiagnostics, optional
+        Shut-in diagnostics (computed for the plots when not given; written to the JSON
+        when given).
+    pdf : bool
+        Also write ``report.pdf``: every plot, ``extra_figures``, the picks table and the
+        stress estimate with its assumptions (:mod:`xlotkit.interpret.plots.pdf`).
+    extra_figures : mapping of str to Figure, optional
+        Further figures for the PNGs and the PDF (e.g. the stress polygon).
 
     Returns
     -------
@@ -273,8 +319,13 @@ def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress:
     if plots:
         from xlotkit.interpret.plots.picks import pick_figures
 
-        figures = pick_figures(record_picks)
-    names = [*REPORT_FILES, *(f"{k}.png" for k in figures)]
+        if diagnostics is None:
+            from xlotkit.interpret.diagnostics import diagnose_record
+
+            diagnostics = diagnose_record(record_picks)
+        figures = pick_figures(record_picks, diagnostics)
+        figures.update(extra_figures or {})
+    names = [*REPORT_FILES, *(f"{k}.png" for k in figures), *(["report.pdf"] if pdf else [])]
     # Also treat a folder with any earlier plot or table as holding a report.
     target = _target_dir(out_dir, names, if_exists)
 
@@ -283,7 +334,7 @@ def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress:
     p_csv = target / "picks.csv"
     atomic_write(p_csv, lambda tmp: df.to_csv(tmp, index=False))
     paths["csv"] = p_csv
-    data = picks_to_dict(record_picks, stress)
+    data = picks_to_dict(record_picks, stress, diagnostics)
     p_json = target / "picks.json"
     atomic_write(p_json, lambda tmp: tmp.write_text(json.dumps(data, indent=2,
                                                                 allow_nan=False) + "\n"))
@@ -292,4 +343,14 @@ def write_pick_report(record_picks: RecordPicks, out_dir: str | Path, *, stress:
         p_png = target / f"{name}.png"
         atomic_write(p_png, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=110))
         paths[name] = p_png
+    if pdf:
+        from xlotkit.interpret.plots.pdf import write_report_pdf
+
+        p_pdf = target / "report.pdf"
+        extra = dict(extra_figures or {})
+        main = {k: f for k, f in figures.items() if k not in extra}
+        atomic_write(p_pdf, lambda tmp: write_report_pdf(
+            tmp, record_picks, main, stress=stress if isinstance(stress, Mapping) else None,
+            diagnostics=diagnostics, extra=extra))
+        paths["pdf"] = p_pdf
     return paths

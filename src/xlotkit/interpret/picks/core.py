@@ -31,6 +31,7 @@ Consensus FCP
    ``flowback_sqrt_p`` before ``flowback_p_v`` (the choke-law plot does not need the
    returned-volume series, whose resolution is usually the weaker one). The interval is that
    pick's interval, widened to cover the other flowback pick if it is ``good`` too.
+   The methods' disagreement is added: the interval covers every flowback value found.
 2. **Otherwise the shut-in methods.** The found shut-in picks of quality ``good`` or ``fair``
    (falling back to ``poor`` ones, then to ``fair``/``poor`` flowback picks, when there is
    nothing better) are combined by their **median**: the methods have different, partly
@@ -233,11 +234,16 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
         chosen = good_flow[0]
         low = min(p.low if p.low is not None else p.value for p in good_flow)
         high = max(p.high if p.high is not None else p.value for p in good_flow)
+        # The methods' disagreement: every flowback value found, good or not.
+        fvals = [p.value for p in flow.values()]
+        low, high = min(low, *fvals), max(high, *fvals)
         return Pick("FCP", "consensus", chosen.value, low=low, high=high, t=chosen.t,
                     window=chosen.window, quality="good",
                     message=f"system stiffness on flowback ({chosen.method})",
                     details={"rule": "flowback", "methods": tuple(p.method for p in good_flow),
-                             "chosen": chosen.method})
+                             "chosen": chosen.method,
+                             "spread": float(max(fvals) - min(fvals))},
+                    level=_common_level(good_flow))
     shut = [p for p in found if p.method not in FLOWBACK_METHODS]
     pool = [p for p in shut if p.quality in ("good", "fair")]
     rule = "shut-in median"
@@ -263,7 +269,15 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
     return Pick("FCP", "consensus", med, low=low, high=high, t=closest.t, quality=q,
                 message=f"median of {', '.join(names)}",
                 details={"rule": rule, "methods": names,
-                         "spread": float(values.max() - values.min())})
+                         "spread": float(values.max() - values.min())},
+                level=_common_level(pool))
+
+
+def _common_level(picks: Sequence[Pick]) -> float | None:
+    """The nominal level of a union of intervals: the lowest of theirs (each covers the
+    truth at least that often), None when one states none."""
+    levels = [p.level for p in picks]
+    return None if any(v is None for v in levels) else min(levels)
 
 
 # --------------------------------------------------------------------------- reconcile
@@ -710,8 +724,11 @@ def _t0(cycles: Sequence[CyclePicks]) -> Pick:
     if value < 0:
         msg += " is negative: reopening above breakdown, check the picks"
         q = "poor"
+    # Differences of two intervals of level L cover the difference at least when both
+    # cover, and usually more (their errors partly cancel); the study measures it.
+    lvl = _common_level((fbp, pr))
     return Pick("T0", "FBP-Pr", value, low=min(lo, value), high=max(hi, value), quality=q,
-                message=msg, details={"FBP": fbp.value, "Pr": pr.value})
+                message=msg, details={"FBP": fbp.value, "Pr": pr.value}, level=lvl)
 
 
 def _consistency(cycles: Sequence[CyclePicks]) -> Consistency:

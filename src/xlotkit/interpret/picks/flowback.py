@@ -87,7 +87,14 @@ from typing import Any
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle, Phase
+from xlotkit.interpret.picks.intervals import (
+    IntervalBudget,
+    budget,
+    correlation_inflation,
+    find_transition,
+)
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect, window_spread
+from xlotkit.interpret.picks.pressurisation import noise_level, quantum
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.record import ATMOSPHERE_PA, Record
 
@@ -249,6 +256,9 @@ class _TwoLines:
     right: LineFit
     masks: tuple[np.ndarray, np.ndarray]
     trials: tuple[tuple[float, float], ...]  # (x*, y*) over perturbed windows
+    # The first n_graded trials are the margin/trim variants that grade the quality; the
+    # rest (tangents next to the break) widen only the interval.
+    n_graded: int = 10**9
 
 
 def _line_or_none(x: np.ndarray, y: np.ndarray, m: np.ndarray) -> LineFit | None:
@@ -284,6 +294,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     n = x.size
     if n < 2 * _MIN_POINTS:
         return f"too few flowback samples ({n}) for two straight lines"
+    n_graded_masks = 10**9
     if tangents is not None:
         (a0, a1), (b0, b1) = tangents
         base_masks = [((u >= a0) & (u <= a1), (u >= b0) & (u <= b1))]
@@ -318,6 +329,10 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
         trials_masks = [_masks_around(u, u0, m, tr) for m in (0.05, 0.10, 0.20)
                         for tr in (0.0, 0.10)]
         trials_masks.append(_masks_around(u, u0, 0.0, 0.0))
+        # Tangents close to the break (the last / first 30 % of each side): on a curved
+        # decline they, not the long secants, are the lines that meet at the break.
+        n_graded_masks = len(trials_masks)
+        trials_masks += [_masks_around(u, u0, m, tr) for m, tr in ((0.05, 0.65), (0.10, 0.6))]
 
     best = None
     for ml, mr in base_masks:
@@ -341,14 +356,17 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     if not (lo <= xs <= hi):
         return "the tangents intersect outside the flowback data"
     trials = []
-    for tl, tr in trials_masks:
+    n_graded = 0
+    for k, (tl, tr) in enumerate(trials_masks):
         fl, fr = _line_or_none(x, y, tl), _line_or_none(x, y, tr)
         if fl is None or fr is None:
             continue
         xi, _, yi, _ = intersect(fl, fr)
         if np.isfinite(xi) and lo <= xi <= hi:
             trials.append((xi, yi))
-    return _TwoLines(xs, xse, ys, yse, left, right, (ml, mr), tuple(trials))
+            if k < n_graded_masks:
+                n_graded += 1
+    return _TwoLines(xs, xse, ys, yse, left, right, (ml, mr), tuple(trials), n_graded)
 
 
 def _quality(tl: _TwoLines, value: float, low: float, high: float, ratio: float) -> str:
@@ -369,13 +387,34 @@ def _line_details(f: LineFit) -> dict[str, Any]:
             "x_range": f.x_range}
 
 
-def _interval(value: float, se: float, spread: tuple[float, float]) -> tuple[float, float]:
+def _fit_width(value: float, se: float, spread: tuple[float, float]) -> tuple[float, float]:
+    """The fit-only range (2 sigma and the window spread) that grades a pick's quality."""
     se = se if np.isfinite(se) else 0.0
     lo, hi = value - 2.0 * se, value + 2.0 * se
     s_lo, s_hi = spread
     if np.isfinite(s_lo):
         lo, hi = min(lo, s_lo), max(hi, s_hi)
     return float(lo), float(hi)
+
+
+def _flowback_budget(res: _TwoLines, u: np.ndarray, x: np.ndarray, y: np.ndarray,
+                     pressure: np.ndarray, value: float, se: float, trials, resolution: float,
+                     noise_floor: float = 0.0) -> IntervalBudget:
+    """The 90 % interval of a two-line flowback pick (:mod:`~xlotkit.interpret.picks.
+    intervals`): the intersection's standard error inflated for correlated residuals, the
+    spread over the perturbed windows, the pressure span over which the data leaves both
+    lines (a gradual closure) and the gauge's resolution."""
+    (ml, mr) = res.masks
+    infl = max(correlation_inflation(y[ml] - res.left(x[ml])),
+               correlation_inflation(y[mr] - res.right(x[mr])))
+    i_b = int(np.argmin(np.abs(x - res.x)))
+    u0 = float(u[i_b])
+    left, right = u0 - float(u[0]), float(u[-1]) - u0
+    span = find_transition(u, x, y, pressure, u0, left, right,
+                           noise=max(noise_level(y), noise_floor))
+    tr = None if span is None else (span[0], span[1])
+    return budget(value, stderr=se, inflation=infl, trials=trials, transition=tr,
+                  resolution=resolution)
 
 
 # --------------------------------------------------------------------------- methods
@@ -434,11 +473,18 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
     value = to_record(res.x, res.y)
     # d p / d y = 2 y for the squared mapping; offsets are treated as exact.
     se_p = 2.0 * abs(res.y) * res.y_se
-    spread = window_spread([to_record(xi, yi) for xi, yi in res.trials])
+    trial_values = [to_record(xi, yi) for xi, yi in res.trials]
+    spread = window_spread(trial_values[:res.n_graded])
     t_spread = window_spread([xi for xi, _ in res.trials])
-    low, high = _interval(value, se_p, spread)
     ratio = res.right.slope / res.left.slope
-    q = _quality(res, value, low, high, ratio)
+    q = _quality(res, value, *_fit_width(value, se_p, spread), ratio)
+    # A whole-bar choke gauge is a staircase in sqrt(p) whose steps noise_level cannot see:
+    # its quantisation noise q / sqrt(12), taken to the sqrt scale, is the floor.
+    q_c = quantum(pc_k)
+    floor = q_c / np.sqrt(12.0) / (2.0 * max(float(np.median(y)), 1.0))
+    bud = _flowback_budget(res, tt, tt, y, rec_p, value, se_p, trial_values,
+                           0.5 * max(quantum(rec_p), q_c), floor)
+    low, high = bud.low, bud.high
     details.update({
         "x": "t", "y": "sqrt(choke gauge pressure) [Pa^0.5]",
         "line_open": _line_details(res.left), "line_closed": _line_details(res.right),
@@ -451,11 +497,12 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
         "n_trials": len(res.trials),
         "window_open": (float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
         "window_closed": (float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
+        "interval": bud,
     })
     msg = (f"closure where the sqrt(p) decline steepens x{ratio:.2f} "
            f"(system stiffness contrast); choke pressure from {choke.description}")
     return Pick(name=name, method=method, value=value, low=low, high=high, t=res.x,
-                window=win, quality=q, message=msg, details=details)
+                window=win, quality=q, message=msg, details=details, level=bud.level)
 
 
 def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
@@ -492,11 +539,14 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
         details["single_line"] = res.startswith(ONE_LINE)
         return Pick.not_found(name, method, res, window=win, details=details)
     value = float(res.y)
-    spread = window_spread([yi for _, yi in res.trials])
-    low, high = _interval(value, res.y_se, spread)
+    trial_values = [yi for _, yi in res.trials]
+    spread = window_spread(trial_values[:res.n_graded])
     s_open, s_closed = -res.left.slope, -res.right.slope
     ratio = s_closed / s_open if s_open else np.inf
-    q = _quality(res, value, low, high, ratio)
+    q = _quality(res, value, *_fit_width(value, res.y_se, spread), ratio)
+    bud = _flowback_budget(res, tt, vv, pp, pp, value, res.y_se, trial_values,
+                           0.5 * quantum(pp))
+    low, high = bud.low, bud.high
     vmono = np.maximum.accumulate(vv)
     t_c = float(np.interp(res.x, vmono, tt))
     details.update({
@@ -511,11 +561,12 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
         "n_trials": len(res.trials),
         "window_open": (float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
         "window_closed": (float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
+        "interval": bud,
     })
     msg = (f"closure where the system stiffness rises from {s_open / 1e5:.4g} to "
            f"{s_closed / 1e5:.4g} bar/m3 (returned volume from {vsrc})")
     return Pick(name=name, method=method, value=value, low=low, high=high, t=t_c,
-                window=win, quality=q, message=msg, details=details)
+                window=win, quality=q, message=msg, details=details, level=bud.level)
 
 
 def pick_fcp_flowback(

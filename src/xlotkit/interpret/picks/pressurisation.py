@@ -35,6 +35,7 @@ import lmfit
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle, Phase
+from xlotkit.interpret.picks.intervals import budget, correlation_inflation, onset_profile
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line
 from xlotkit.interpret.picks.types import Pick, PickQuality
 from xlotkit.record import Record
@@ -510,6 +511,19 @@ def departure_pick(name: str, method: str, x: np.ndarray, y: np.ndarray, t: np.n
         # trials is all we have.
         s = 0.0
     low, high = float(vals.min() - s), float(vals.max() + s)
+    # The onset of a gradual departure can lie before it is detected: the profile of the
+    # bend model over the stretch and the departure gives the admissible onsets.
+    r_dep = base.direction * (y - base.fit(x))
+    far = np.flatnonzero(r_dep[jd:] > 10 * base.sigma)
+    j_end = min(x.size, jd + (int(far[0]) if far.size else max(3 * (jd - base.a) // 2, 10)) + 1)
+    prof = onset_profile(x[base.a:j_end], y[base.a:j_end], base.direction or -1,
+                         inflation=correlation_inflation(y[base.a:base.b + 1]
+                                                         - base.fit(x[base.a:base.b + 1])))
+    extra = [] if prof is None else [("onset", prof[0], prof[1])]
+    q_y = quantum(y)
+    bud = budget(best.value, stderr=s, trials=vals.tolist(), resolution=0.5 * q_y,
+                 extra=extra)
+    details.update({"interval": bud})
     details.update({
         f"{x_name}_pick": best.x, "departure": "below" if base.direction < 0 else "above",
         f"{x_name}_departure_detected": float(x[jd]), "t_departure_detected": float(t[jd]),
@@ -517,8 +531,9 @@ def departure_pick(name: str, method: str, x: np.ndarray, y: np.ndarray, t: np.n
         f"{x_name}_first_deviation": walk.x, "first_deviation_value": walk.value,
     })
     q = quality(base.fit.r2, best.value, low, high, base.fit.n)
-    return Pick(name=name, method=method, value=best.value, low=low, high=high, t=best.t,
-                window=(win[0], float(t[jd])), quality=q, details=details)
+    return Pick(name=name, method=method, value=best.value, low=bud.low, high=bud.high,
+                t=best.t, window=(win[0], float(t[jd])), quality=q, details=details,
+                level=bud.level)
 
 
 def _user_stretch(t: np.ndarray, window: tuple[float, float] | None) -> tuple[int, int] | None:
@@ -583,9 +598,13 @@ def _pressurisation_pick(name: str, record: Record, cycle: Cycle,
             pass
         if abs(pick.value - float(np.max(p))) <= 3 * d["sigma"]:
             msg = (msg + "; " if msg else "") + "departure at the peak (brittle breakdown)"
+    # The reopening pressure's interval holds its 90 % level in the calibration study
+    # (docs/intervals.md); the LOP's does not (its departure is often detected early on a
+    # bend that ends in breakdown), so the LOP states no level.
+    level = pick.level if name == "Pr" else None
     return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
                 high=pick.high, t=pick.t, window=pick.window, quality=pick.quality,
-                message=msg, details=d)
+                message=msg, details=d, level=level)
 
 
 def pick_lop(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None) -> Pick:
@@ -665,13 +684,25 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
                               f"pumping (drop {drop / 1e5:.2f} bar after the peak)",
                               details=details)
     value = float(pm[ipk])
-    low = min(value, float(p.max())) - max(q / 2, sig)
-    high = max(value, float(p.max())) + max(q / 2, sig)
+    # The peak lies between samples: the pressure can have risen further, for up to one
+    # sample interval, at the rate it was rising before the highest sample (a brittle
+    # breakdown turns over within a sample), and the running median trims a one-sample
+    # peak to its neighbours.
+    i_raw = int(np.argmax(p))
+    k0 = max(0, i_raw - 5)
+    rise = 0.0
+    if i_raw - k0 >= 2:
+        rise = max(float(np.polyfit(t[k0:i_raw + 1], p[k0:i_raw + 1], 1)[0]), 0.0)
+    dt_s = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    top = max(value, float(p.max()))
+    bud = budget(value, stderr=sig, trials=[float(p.max())], resolution=0.5 * q,
+                 extra=[("between samples", top, top + rise * dt_s)])
+    details.update({"rise_rate": rise, "interval": bud})
     qual: PickQuality = "good" if drop > 3 * thresh else "fair"
-    return Pick("FBP", "max", value, low, high, t=float(t[ipk]),
+    return Pick("FBP", "max", value, bud.low, bud.high, t=float(t[ipk]),
                 window=(float(t[0]), float(t[-1])), quality=qual,
                 message=f"pressure fell {drop / 1e5:.1f} bar after the peak while pumping",
-                details=details)
+                details=details, level=bud.level)
 
 
 def _running_median(y: np.ndarray, w: int) -> np.ndarray:
@@ -894,22 +925,59 @@ def pick_isip(record: Record, cycle: Cycle, *, window: tuple[float, float] | Non
     vals = [value]
     L = ed.j1 - ed.j0 + 1
     sh1 = max(1, ed.j0 // 4)
+    # Admissible windows: shifted by a quarter of the skipped samples, shorter and longer,
+    # and starting a third and two thirds of a window later (the tail of the pump-off drop
+    # hides in the noise of the first window and lifts its intercept).
     for d0, LL in ((-sh1, L), (sh1, L), (0, max(MIN_LINE_POINTS, int(L * 2 / 3))),
-                   (0, int(L * 4 / 3))):
+                   (0, int(L * 4 / 3)), (max(1, L // 3), L), (max(2, 2 * L // 3), L)):
         a, b = max(0, ed.j0 + d0), max(0, ed.j0 + d0) + LL
         if b <= t.size and b - a >= 3:
             vals.append(fit_line(dt[a:b], p[a:b]).intercept)
     s = ed.fit.intercept_stderr if np.isfinite(ed.fit.intercept_stderr) else 0.0
     low, high = min(vals) - s, max(vals) + s
+    # The decline is not straight back to pump stop (it curves as leak-off slows): a
+    # parabola through the window, extrapolated, is the other admissible reading.
+    a, b = ed.j0, ed.j1 + 1
+    extra = []
+    if b - a >= 8:
+        c2 = np.polyfit(dt[a:b] - dt[a], p[a:b], 2)
+        extra.append(("curvature", *sorted((value, float(np.polyval(c2, -dt[a]))))))
+    # With Carter leak-off the decline is straight in Nolte's G rather than in time (it
+    # is convex in time from pump stop on): the G line through the same window is the
+    # third reading (G for alpha = 1, as the shut-in picks use).
+    pumps_ = pump_phases(cycle)
+    t_pump = max(t_s - pumps_[0].t_start, 1.0) if pumps_ else 0.0
+    if t_pump > 0 and b - a >= 3:
+        d = np.clip(dt[a:b], 0.0, None) / t_pump
+        G = 4.0 / np.pi * (4.0 / 3.0 * ((1.0 + d) ** 1.5 - d ** 1.5) - 4.0 / 3.0)
+        if np.ptp(G) > 0:
+            g_int = float(np.polyfit(G, p[a:b], 1)[1])
+            extra.append(("G-function line", *sorted((value, g_int))))
+    # A decline convex in G as well (leak-off faster at high pressure) falls fastest right
+    # after pump stop, closer to linear in sqrt(time) there: that line bounds it from above.
+    # Only a reading the window's data cannot reject counts: its misfit may exceed the time
+    # line's by no more than the chi-square(1) 90 % quantile of the noise.
+    if b - a >= 3 and np.ptp(dt[a:b]) > 0:
+        st_ = np.sqrt(np.clip(dt[a:b], 0.0, None))
+        cs = np.polyfit(st_, p[a:b], 1)
+        sse_s = float(np.sum((p[a:b] - np.polyval(cs, st_)) ** 2))
+        sse_l = float(np.sum((p[a:b] - ed.fit(dt[a:b])) ** 2))
+        sig2 = max(ed.sigma ** 2, sse_l / max(b - a - 2, 1))
+        if sse_s <= sse_l + 2.71 * sig2 * correlation_inflation(p[a:b] - ed.fit(dt[a:b])) ** 2:
+            extra.append(("sqrt-time line", *sorted((value, float(cs[1])))))
+    seg = p[a:b]
+    bud = budget(value, stderr=s, inflation=correlation_inflation(seg - ed.fit(dt[a:b])),
+                 trials=vals, resolution=0.5 * quantum(p), extra=extra)
     pumps = pump_phases(cycle)
     last_p = float(np.median(record.pressure[max(pumps[-1].i1 - 3, pumps[-1].i0):pumps[-1].i1]))
     details = {"slope": ed.fit.slope, "slope_stderr": ed.fit.slope_stderr,
                "intercept_stderr": s, "r2": ed.fit.r2, "n": ed.fit.n, "sigma": ed.sigma,
                "t_shut_in": t_s, "last_pumping_pressure": last_p,
                "friction_drop": last_p - value, "trial_values": vals,
-               "skipped_samples": ed.j0}
+               "skipped_samples": ed.j0, "interval": bud}
     r2 = ed.fit.r2 if ed.fit.n >= 3 else 0.0
     q = quality(max(r2, 0.98 if ed.fit.residual_std <= 2 * ed.sigma else r2), value, low, high,
                 ed.fit.n)
-    return Pick("ISIP", "tangent", float(value), float(low), float(high), t=t_s,
-                window=(float(t[ed.j0]), float(t[ed.j1])), quality=q, details=details)
+    return Pick("ISIP", "tangent", float(value), bud.low, bud.high, t=t_s,
+                window=(float(t[ed.j0]), float(t[ed.j1])), quality=q, details=details,
+                level=bud.level)

@@ -42,6 +42,13 @@ from typing import Any
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle
+from xlotkit.interpret.picks.intervals import (
+    IntervalBudget,
+    budget,
+    corner_profile,
+    correlation_inflation,
+    find_transition,
+)
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect
 from xlotkit.interpret.picks.pressurisation import (
     MIN_LINE_POINTS,
@@ -163,7 +170,7 @@ def _finish(pick: Pick, sh: _Shut, extra: dict[str, Any]) -> Pick:
     d.setdefault("drop_samples_skipped", sh.j0)
     return Pick(name="FCP", method=pick.method, value=pick.value, low=pick.low, high=pick.high,
                 t=pick.t, window=pick.window, quality=pick.quality, message=pick.message,
-                details=d)
+                details=d, level=pick.level)
 
 
 def _inside(sh: _Shut, value: float | None) -> bool:
@@ -398,16 +405,65 @@ def _break_pick(sh: _Shut, brk: _Break, method: str, x: np.ndarray, x_name: str,
     # The kink lies somewhere between two samples: on clean data that, not the fit, limits
     # how well the breakpoint pressure is known.
     res = _sample_resolution(xs, h.s1, h.s2, h.x0)
-    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    # Quality grades the fit (R^2 and its own width), as before intervals had a level.
+    q = quality(h.r2, value, min(vals) - max(s, res), max(vals) + max(s, res), h.n)
+    t_pick = float(np.interp(h.x0, xs, t[sel]))
+    bud = _shutin_budget(sh, brk, x, value, s, p[sel] - h(x[sel]), vals, res, t_pick, alpha)
     details["trial_values"] = vals
     details["breakpoint_stderr"] = s
     details["sampling_resolution"] = res
-    q = quality(h.r2, value, low, high, h.n)
-    return Pick("FCP", method, value, float(low), float(high),
-                t=float(np.interp(h.x0, xs, t[sel])),
+    details["interval"] = bud
+    return Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
                 window=(float(t[sel][0]), float(t[sel][-1])),
                 quality=q, message=f"slope break ({brk.kind}: dP/dG x{brk.ratio:.2f})",
-                details=details)
+                details=details, level=bud.level)
+
+
+def _derivative_budget(sh: _Shut, value: float, se: float, resid: np.ndarray, trials,
+                       t_pick: float, alpha: float = 1.0, extra=()) -> IntervalBudget:
+    """The 90 % interval of a closure pick read from a derivative (bilinear, compliance):
+    its own fit error and trials, and the decline's transition around the pick, searched
+    on p vs G as for the straight-line methods (:func:`_shutin_budget`) with the break
+    scan's window."""
+    brk = _find_break(sh, alpha)
+    sl = slice(sh.j0, None)
+    if brk is None:
+        return budget(value, stderr=se, inflation=correlation_inflation(resid),
+                      trials=trials, resolution=0.5 * quantum(sh.p[sl]), extra=extra)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    return _shutin_budget(sh, brk, G, value, se, resid, trials, 0.0, t_pick, alpha, extra)
+
+
+def _shutin_budget(sh: _Shut, brk: _Break, x: np.ndarray, value: float, se: float,
+                   resid: np.ndarray, trials, sampling: float, t_pick: float,
+                   alpha: float = 1.0, extra=()) -> IntervalBudget:
+    """The 90 % interval of a closure pick at a slope break of the decline
+    (:mod:`~xlotkit.interpret.picks.intervals`): the fit's standard error inflated for
+    correlated residuals, the spread over fit spans and bootstrap copies, the pressure span
+    over which the decline leaves both the line before and the line after closure (a
+    gradual closure, searched on the method's own abscissa ``x`` around the break, sides
+    of ``2 w`` and ``w`` of G as the break scan), and the resolution: half the gauge's
+    quantisation step and the pressure change over half a sample at the kink."""
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    p = sh.p[sl]
+    g0 = float(np.interp(t_pick, sh.t[sl], G))
+    span = find_transition(G, x, p, p, g0, 2.0 * brk.w, brk.w, noise=sh.sigma)
+    tr = None if span is None else (span[0], span[1])
+    resolution = float(np.hypot(0.5 * quantum(p), sampling))
+    infl = correlation_inflation(resid)
+    extra = list(extra)
+    near = (G >= g0 - brk.w) & (G <= g0 + brk.w)
+    x0 = float(np.interp(g0, G, x))
+    hw = 0.5 * float(np.ptp(x[near])) if near.sum() >= 8 else 0.0
+    cp = corner_profile(x[near], p[near], x0, hw, inflation=infl) if hw > 0 else None
+    if cp is not None:
+        # Closure lies inside the decline (as every pick is checked, _inside).
+        lo_p = float(np.min(p)) - 3.0 * sh.sigma
+        hi_p = sh.isip + 3.0 * sh.sigma
+        extra.append(("corner fit", min(max(cp[0], lo_p), value), max(min(cp[1], hi_p), value)))
+    return budget(value, stderr=se, inflation=infl, trials=trials,
+                  transition=tr, resolution=resolution, extra=extra)
 
 
 def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Callable,
@@ -487,17 +543,11 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
     of the decline (pressure-dependent leak-off, height recession) is not closure: with
     pressure-dependent leak-off closure is at the end of the hump, not where it starts.
 
-    The diagnosis compares ``|dP/dG|`` early in the decline (first third before closure) with
-    its value ``m`` just before closure, i.e. ``G dP/dG`` against the line ``m G`` through the
-    origin tangent to it at closure (Barree et al. 2009):
-
-    * ``normal``: early ``|dP/dG|`` within 10 % of ``m`` (on the line);
-    * ``pressure_dependent_leakoff``: early ``|dP/dG|`` > 1.1 m (``G dP/dG`` humps above the
-      line: leak-off faster at high pressure);
-    * ``height_recession_or_tip_extension``: early ``|dP/dG|`` < 0.9 m (``G dP/dG`` below the
-      line, concave upward: ``|dP/dG|`` grows as the decline goes on -- also the signature of
-      a constant-permeability wall leak, whose rate does not fall like Carter's);
-    * ``undetermined``: no closure or too short a decline before it.
+    The diagnosis (``details["diagnosis"]``) reads the shape of ``G dP/dG`` before closure
+    against the line ``m G`` through the origin tangent to it at closure (Barree et al.
+    2009): ``normal``, ``pressure_dependent_leakoff``, ``tip_extension``,
+    ``height_recession`` or ``undetermined`` -- the rule of
+    :mod:`xlotkit.interpret.diagnostics.gfunction`.
 
     Parameters
     ----------
@@ -526,33 +576,24 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
         msg = pick.message + "; " + msg
     return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
                 high=pick.high, t=pick.t, window=pick.window, quality=pick.quality, message=msg,
-                details=d)
+                details=d, level=pick.level)
 
 
 def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
-    """Decline type from ``|dP/dG|`` early in the decline against its value at closure."""
-    d = pick.details
-    if not pick.found or "slope" not in d:
+    """Decline type from the shape of ``|dP/dG|`` before closure: the rule of
+    :mod:`xlotkit.interpret.diagnostics.gfunction` (one rule for the pick and the
+    diagnostics)."""
+    from xlotkit.interpret.diagnostics.gfunction import diagnose_curves
+
+    if not pick.found or pick.t is None:
         return "undetermined", "no closure on the G plot"
-    m = -float(d["slope"])
-    if not m > 0:
-        return "undetermined", "pressure not declining on the G plot"
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
-    j_end = int(np.searchsorted(sh.t[sl], pick.t))
     dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
                         min_points=5)
-    early = dpdg[: max(j_end // 3, 0)]
-    early = early[np.isfinite(early)]
-    if early.size < 5:
-        return "undetermined", "too short a decline before closure"
-    ratio = float(np.median(-early)) / m
-    if ratio > 1.1:
-        return "pressure_dependent_leakoff", f"early G dP/dG above the line ({ratio:.2f} m)"
-    if ratio < 0.9:
-        return ("height_recession_or_tip_extension",
-                f"early G dP/dG below the line ({ratio:.2f} m)")
-    return "normal", f"early G dP/dG on the line ({ratio:.2f} m)"
+    g_c = float(np.interp(pick.t, sh.t[sl], G))
+    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c)
+    return diagnosis, why
 
 
 # ===================================================================== tangent
@@ -593,14 +634,18 @@ def _tangents_at_break(sh: _Shut, brk: _Break) -> Pick:
                 vals.append(y2)
     s = float(np.nan_to_num(sys_))
     res = _sample_resolution(sh.dt[post], fe.slope, fl.slope, xs)
-    low, high = min(vals) - max(s, res), max(vals) + max(s, res)
+    q = quality(min(fe.r2, fl.r2), ys, min(vals) - max(s, res), max(vals) + max(s, res),
+                min(fe.n, fl.n))
+    resid = np.concatenate([sh.p[pre] - fe(sh.dt[pre]), sh.p[aft] - fl(sh.dt[aft])])
+    bud = _shutin_budget(sh, brk, sh.dt[sh.j0:], float(ys), s, resid, vals, res,
+                         float(sh.t_s + xs))
     details.update({"sampling_resolution": res, "t_intersection": sh.t_s + xs,
                     "t_intersection_stderr": sxs,
                     "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
-                    "intersection_stderr": s})
-    q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
-    return Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
-                window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details)
+                    "intersection_stderr": s, "interval": bud})
+    return Pick("FCP", method, float(ys), bud.low, bud.high, t=float(sh.t_s + xs),
+                window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details,
+                level=bud.level)
 
 
 def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
@@ -786,9 +831,11 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     k = int(np.argmax(psm <= h.x0)) if np.any(psm <= h.x0) else psm.size - 1
     details.update({"trial_values": vals, "x0_stderr": s})
     q = quality(h.r2, h.x0, low, high, h.n)
-    pick = Pick("FCP", method, float(h.x0), float(low), float(high), t=float(t[k]),
+    bud = _derivative_budget(sh, float(h.x0), s, base[0].result.residual, vals, float(t[k]))
+    details["interval"] = bud
+    pick = Pick("FCP", method, float(h.x0), bud.low, bud.high, t=float(t[k]),
                 window=(float(t[0]), float(t[-1])) if window is None else tuple(window),
-                quality=q, details=details)
+                quality=q, details=details, level=bud.level)
     return _finish(pick, sh, {})
 
 
@@ -852,13 +899,13 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
             h = fit_hinge(G[idx], d[idx], min_points=MIN_LINE_POINTS)
         except (ValueError, TypeError):
             return None
-        return h, psm
+        return h, psm, float(G[idx[-1]])
 
     base = run(DERIVATIVE_L)
     if base is None:
         return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
                                       "|dP/dG| does not rise after its minimum"), sh, {})
-    h, psm = base
+    h, psm, g_end = base
     details = {"G_pick": h.x0, "G_pick_stderr": h.x0_stderr, "dPdG_at_closure": -h.y0,
                "s_before": h.s1, "s_after": h.s2, "r2": h.r2, "n": h.n, "alpha": alpha}
     sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
@@ -886,9 +933,15 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     low, high = min(vals), max(vals)
     details["trial_values"] = vals
     q = quality(h.r2, value, low, high, h.n)
-    pick = Pick("FCP", method, value, float(low), float(high),
-                t=float(np.interp(h.x0, G, t)), window=(float(t[0]), float(t[-1])),
-                quality=q, details=details)
+    t_pick = float(np.interp(h.x0, G, t))
+    # The stiffness rises from the walls' first contact (the pick) to the end of the rise
+    # (the largest |dP/dG|): the fracture closes over that span, which the interval covers.
+    rise = [("stiffness rise", *sorted((p_at(g_end), value)))] if g_end > h.x0 else []
+    bud = _derivative_budget(sh, value, 0.0, h.result.residual, vals, t_pick, alpha, rise)
+    details["interval"] = bud
+    pick = Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
+                window=(float(t[0]), float(t[-1])), quality=q, details=details,
+                level=bud.level)
     return _finish(pick, sh, {})
 
 

@@ -26,7 +26,11 @@ class Pick:
         Picked pressure [Pa] on the record's reference; None when the record does not
         contain it (e.g. the decline never reaches closure) -- ``message`` says why.
     low, high : float or None
-        Interval [Pa] combining the fit's covariance and the spread over nearby windows.
+        Interval [Pa]. Where ``level`` is set it is meant to contain the true value with that
+        probability and is built from every source of error the method knows (fit, windows,
+        a gradual transition, the gauge's resolution; :mod:`~xlotkit.interpret.picks.
+        intervals`, the parts in ``details["interval"]``); otherwise it is the range of the
+        fit's covariance and nearby windows, without a stated level.
     t : float or None
         Elapsed time of the pick [s].
     window : tuple of float or None
@@ -38,6 +42,8 @@ class Pick:
     details : Mapping[str, Any]
         Method-specific numbers (fitted slopes, stiffnesses [Pa/m^3], R^2, G at closure, ...),
         SI units.
+    level : float or None
+        Nominal coverage of ``[low, high]`` (e.g. 0.9), None when the interval states none.
     """
 
     name: str
@@ -50,6 +56,7 @@ class Pick:
     quality: PickQuality = "good"
     message: str = ""
     details: Mapping[str, Any] = field(default_factory=dict)
+    level: float | None = None
 
     @property
     def found(self) -> bool:

@@ -1,14 +1,24 @@
-"""Annotated plots of an XLOT record and its picks.
+"""Annotated plots of an XLOT record and its picks, for an engineer to read at a glance.
 
 Every function returns a :class:`matplotlib.figure.Figure` built directly (no pyplot, so no
 global state and no GUI backend); save it with ``fig.savefig(path)``. Field units: pressure in
 bar, rate in l/min, time in minutes (shut-in and flowback plots in seconds since the event,
 where the square root is taken).
 
-The fitted lines drawn are read from each pick's ``details`` (slopes and intercepts in SI, on
-the plot's own abscissa); derivatives shown for reading the plots (dP/d sqrt(t), dP/dG,
-G dP/dG, dp/dt) are local least-squares slopes over a sliding window, not raw differences,
-so that pressure quantised to 0.1-1 bar still gives a readable curve.
+Conventions of every plot:
+
+* each pick is marked and labelled with its value and its interval at the stated level
+  (``FCP 261.9 bar, 90 %: 261.5-262.6``); labels are placed clear of each other and of the
+  curves (:mod:`~xlotkit.interpret.plots.labels`);
+* the interval of the plot's pick is drawn as a band, the data window the method used as a
+  shaded span;
+* legends name things in words (``line before closure``, ``closed-fracture line``), never
+  by internal keys.
+
+The fitted lines drawn are read from each pick's ``details`` (slopes and intercepts in SI,
+on the plot's own abscissa); derivatives shown (dP/d sqrt(t), dP/dG, G dP/dG, dp/dt) are
+local least-squares slopes over a sliding window, not raw differences, so that pressure
+quantised to 0.1-1 bar still gives a readable curve.
 """
 
 from __future__ import annotations
@@ -21,10 +31,13 @@ from matplotlib.figure import Figure
 
 from xlotkit.interpret.picks.core import CyclePicks, RecordPicks
 from xlotkit.interpret.picks.types import Pick
+from xlotkit.interpret.plots.labels import LabelPlacer
 from xlotkit.record import Record
 
 __all__ = [
+    "METHOD_WORDS",
     "g_function",
+    "interval_text",
     "pick_figures",
     "plot_bilinear",
     "plot_flowback_p_v",
@@ -43,46 +56,58 @@ _METHOD_COLORS = {"tangent": "tab:olive", "sqrt_t": "tab:cyan", "g_function": "t
                   "bilinear": "tab:pink", "compliance": "tab:gray",
                   "flowback_sqrt_p": "tab:green", "flowback_p_v": "darkgreen",
                   "consensus": "k"}
-_SHORT = {"tangent": "tan", "sqrt_t": "√t", "g_function": "G", "bilinear": "bil",
-          "compliance": "comp", "flowback_sqrt_p": "fb√p", "flowback_p_v": "fbpV",
-          "consensus": ""}
+#: FCP methods in words (legends and labels).
+METHOD_WORDS = {"tangent": "tangents on p-t", "sqrt_t": "square-root-of-time",
+                "g_function": "G-function", "bilinear": "bilinear dp/dt-p",
+                "compliance": "compliance (stiffness rise)",
+                "flowback_sqrt_p": "flowback sqrt(p)-t", "flowback_p_v": "flowback p-V",
+                "consensus": "consensus"}
+_NAMES = {"LOP": "LOP", "FBP": "FBP", "Pr": "reopening Pr", "FPP": "FPP", "ISIP": "ISIP",
+          "FCP": "FCP"}
+_WINDOW = dict(color="gold", alpha=0.18, lw=0)
+_BAND = dict(alpha=0.14, lw=0)
 
 
 # --------------------------------------------------------------------------- helpers
-def _fig(nrows: int = 1, figsize=(8.0, 5.0)) -> tuple[Figure, Any]:
+def _fig(nrows: int = 1, figsize=(8.5, 5.2)) -> tuple[Figure, Any]:
     fig = Figure(figsize=figsize, layout="constrained")
     axes = fig.subplots(nrows, 1, sharex=nrows > 1)
     return fig, axes
 
 
-def _local_slope(x: np.ndarray, y: np.ndarray, n: int | None = None) -> np.ndarray:
-    """dy/dx by least squares over a centred window of ``n`` samples (default ~4 % of data)."""
-    x = np.asarray(x, float)
-    y = np.asarray(y, float)
-    m = x.size
-    if m < 3:
-        return np.full(m, np.nan)
-    n = n or max(5, int(0.04 * m))
-    h = n // 2
-    out = np.full(m, np.nan)
-    # Cumulative sums make every window O(1).
-    cx, cy = np.concatenate([[0], np.cumsum(x)]), np.concatenate([[0], np.cumsum(y)])
-    cxx, cxy = np.concatenate([[0], np.cumsum(x * x)]), np.concatenate([[0], np.cumsum(x * y)])
-    lo = np.clip(np.arange(m) - h, 0, m)
-    hi = np.clip(np.arange(m) + h + 1, 0, m)
-    k = hi - lo
-    sx, sy = cx[hi] - cx[lo], cy[hi] - cy[lo]
-    sxx, sxy = cxx[hi] - cxx[lo], cxy[hi] - cxy[lo]
-    den = k * sxx - sx * sx
-    ok = (k >= 3) & (np.abs(den) > 1e-300)
-    out[ok] = (k[ok] * sxy[ok] - sx[ok] * sy[ok]) / den[ok]
-    return out
+def interval_text(pk: Pick, name: str | None = None, unit_scale: float = _BAR) -> str:
+    """``"FCP 261.9 bar, 90 %: 261.5-262.6"`` (no level: ``range 261.5-262.6``)."""
+    name = _NAMES.get(pk.name, pk.name) if name is None else name
+    s = f"{name} {pk.value / unit_scale:.1f} bar"
+    if pk.low is not None and pk.high is not None:
+        lv = f"{100 * pk.level:.0f} %" if pk.level is not None else "range"
+        s += f", {lv}: {pk.low / unit_scale:.1f}-{pk.high / unit_scale:.1f}"
+    return s
 
 
-def _label_pick(ax, t_min: float, p_bar: float, text: str, color: str, *, k: int = 0) -> None:
-    ax.plot([t_min], [p_bar], "o", ms=6, mfc="none", mec=color, mew=1.5, zorder=5)
-    ax.annotate(text, (t_min, p_bar), xytext=(6, 6 + 9 * (k % 4)), textcoords="offset points",
-                fontsize=7, color=color)
+def _band_label(pk: Pick, what: str = "interval") -> str:
+    lv = f"{100 * pk.level:.0f} % " if pk.level is not None else ""
+    return f"{_NAMES.get(pk.name, pk.name)} {lv}{what}"
+
+
+def _hband(ax, pk: Pick | None, color: str, fy=lambda p: p / _BAR, label: str | None = None):
+    """The pick's interval as a horizontal band (``fy`` maps Pa to the plot's y)."""
+    if pk is None or not pk.found or pk.low is None or pk.high is None:
+        return
+    ax.axhspan(fy(pk.low), fy(pk.high), color=color, **_BAND,
+               label=label or _band_label(pk))
+
+
+def _vband(ax, a: float | None, b: float | None, color: str, label: str):
+    if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)):
+        return
+    ax.axvspan(min(a, b), max(a, b), color=color, **_BAND, label=label)
+
+
+def _window(ax, a: float | None, b: float | None, label: str = "data window used"):
+    if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)) or a == b:
+        return
+    ax.axvspan(min(a, b), max(a, b), **_WINDOW, label=label, zorder=0)
 
 
 def _phase(cp: CyclePicks, kind: str):
@@ -100,101 +125,99 @@ def _shutin_time(record: Record, cp: CyclePicks) -> float | None:
     return float(record.t[sh.i0])
 
 
-def _pump_time(record: Record, cp: CyclePicks, t_s: float) -> float:
-    pumps = [p for p in cp.cycle.phases if p.kind == "pump"]
-    t0 = pumps[0].t_start if pumps else cp.cycle.t_start
-    return max(t_s - t0, 1e-9)
-
-
-def _lines(details: Mapping[str, Any]) -> list[tuple[str, dict]]:
-    """Straight lines stored in a pick's details: every mapping with slope and intercept
-    (``line_open``, ``line_closed``, ``line_1`` ...), and the top-level one if any."""
-    out = []
-    if "slope" in details and "intercept" in details:
-        out.append(("line", dict(details)))
-    for k, v in details.items():
-        if isinstance(v, Mapping) and "slope" in v and "intercept" in v:
-            out.append((k, dict(v)))
-    return out
-
-
-def _draw_lines(ax, details: Mapping[str, Any], x_plot_range, *, xscale=1.0, yscale=1.0,
-                color="k", extend=0.15) -> None:
-    """Draw the lines of ``details`` (SI, in the plot's abscissa before ``xscale``)."""
-    for name, ln in _lines(details):
-        s, c = float(ln["slope"]), float(ln["intercept"])
-        if not (np.isfinite(s) and np.isfinite(c)):
-            continue
-        xr = None
-        for key, val in ln.items():
-            if key.endswith("_range") and isinstance(val, (tuple, list)) and len(val) == 2:
-                xr = (float(val[0]), float(val[1]))
+def _line_xy(ln: Mapping[str, Any], x_range=None, pad: float = 0.15, n: int = 40):
+    s, c = float(ln["slope"]), float(ln["intercept"])
+    xr = x_range
+    if xr is None:
+        for k, v in ln.items():
+            if k.endswith("_range") and isinstance(v, (tuple, list)) and len(v) == 2:
+                xr = (float(v[0]), float(v[1]))
                 break
-        if xr is None:
-            xr = x_plot_range
-        span = xr[1] - xr[0]
-        xx = np.linspace(xr[0] - extend * span, xr[1] + extend * span, 50)
-        ax.plot(xx * xscale, (s * xx + c) * yscale, "--", color=color, lw=1.4, zorder=4,
-                label=f"{name}" if name != "line" else "fitted line")
+    if xr is None or not (np.isfinite(s) and np.isfinite(c)):
+        return None, None
+    span = xr[1] - xr[0]
+    xx = np.linspace(xr[0] - pad * span, xr[1] + pad * span, n)
+    return xx, s * xx + c
 
 
-def _extended_line(line: Mapping[str, Any], pad: float = 0.3, n: int = 30
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Points of a fitted line ``y = slope x + intercept`` over its fit range widened by
-    ``pad`` of the range on each side (so the eye sees where the two lines cross)."""
-    a, b = line["x_range"]
-    span = b - a
-    xx = np.linspace(a - pad * span, b + pad * span, n)
-    return xx, line["slope"] * xx + line["intercept"]
+def _draw_line(ax, ln, label: str, color: str, *, xscale=1.0, yscale=1.0, x_range=None,
+               pad=0.15, xshift=0.0):
+    xx, yy = _line_xy(ln, x_range, pad)
+    if xx is None:
+        return
+    ax.plot((xx - xshift) * xscale, yy * yscale, "--", color=color, lw=1.4, zorder=4,
+            label=label)
 
 
-def _finish(ax, xlabel: str, ylabel: str, title: str) -> None:
+def _finish(ax, xlabel: str, ylabel: str, title: str, loc: str = "best") -> None:
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
+    h, lab = ax.get_legend_handles_labels()
+    if h:
+        ax.legend(fontsize=7.5, loc=loc, framealpha=0.85)
     ax.grid(alpha=0.3)
 
 
 def _no_data(ax, text: str) -> None:
-    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9)
+    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9,
+            wrap=True)
+
+
+def _margin(ax, frac: float = 0.08) -> None:
+    """Room above and below the data for labels."""
+    lo, hi = ax.get_ylim()
+    d = hi - lo
+    ax.set_ylim(lo - frac * d, hi + frac * d)
 
 
 # --------------------------------------------------------------------------- overview
 def plot_overview(record_picks: RecordPicks) -> Figure:
-    """Pressure and rate against time with every pick marked and labelled."""
+    """Pressure and rate against time; every pick of every test cycle labelled with its
+    interval, each closure method a marker named in the legend."""
     rec = record_picks.record
-    fig, (ax, axr) = _fig(2, figsize=(10.0, 6.5))
+    fig, (ax, axr) = _fig(2, figsize=(12.5, 7.0))
+    fig.get_layout_engine().set(h_pad=0.02)
     tm = rec.t / 60.0
     ax.plot(tm, rec.pressure / _BAR, lw=0.9, color="tab:blue", label="pressure")
     surf = rec.channels.get("surface_pressure")
     if surf is not None:
         ax.plot(tm, surf / _BAR, lw=0.7, color="tab:gray", label="surface pressure")
+    placer = LabelPlacer()
+    seen: set[str] = set()
     for cp in record_picks.cycles:
-        ax.axvspan(cp.cycle.t_start / 60, cp.cycle.t_end / 60, color="0.9" if cp.index % 2
-                   else "0.95", lw=0, zorder=0)
-        ax.annotate(f"{cp.index}: {cp.kind}", (cp.cycle.t_start / 60, 1.0),
-                    xycoords=("data", "axes fraction"), va="top", fontsize=7)
-        k = 0
-        km = 0
-        for pk in (*cp.picks, cp.fcp):
+        ax.axvspan(cp.cycle.t_start / 60, cp.cycle.t_end / 60,
+                   color="0.9" if cp.index % 2 else "0.96", lw=0, zorder=0)
+        # (boxed, so that the label placer keeps clear of it)
+        ax.annotate(f"cycle {cp.index}: {cp.kind}", (cp.cycle.t_start / 60, 1.0),
+                    xycoords=("data", "axes fraction"), va="top", fontsize=7,
+                    xytext=(2, -2), textcoords="offset points",
+                    bbox=dict(boxstyle="square,pad=0.1", fc="none", ec="none"))
+        for pk in cp.picks:
             if not pk.found or pk.t is None:
                 continue
-            if pk.name == "FCP" and pk.method != "consensus":
+            if pk.name == "FCP":
                 col = _METHOD_COLORS.get(pk.method, "tab:green")
-                ax.plot([pk.t / 60], [pk.value / _BAR], "x", color=col, ms=5)
-                # Stagger the method labels: several methods often land on one point.
-                ax.annotate(_SHORT.get(pk.method, pk.method), (pk.t / 60, pk.value / _BAR),
-                            xytext=(4, -9 - 8 * (km % 3)), textcoords="offset points", fontsize=6,
-                            color=col)
-                km += 1
+                lab = f"FCP by {METHOD_WORDS.get(pk.method, pk.method)}"
+                ax.plot([pk.t / 60], [pk.value / _BAR], "x", color=col, ms=6, mew=1.3,
+                        zorder=5, label=None if lab in seen else lab)
+                seen.add(lab)
                 continue
-            label = pk.name if pk.method != "consensus" else "FCP"
-            _label_pick(ax, pk.t / 60, pk.value / _BAR, f"{label} {pk.value / _BAR:.1f}",
-                        _COLORS.get(pk.name, "k"), k=k)
-            k += 1
-    ax.set_ylabel(f"pressure [bar] ({rec.reference.describe()})")
-    ax.legend(loc="upper right", fontsize=8)
+            placer.add(ax, pk.t / 60, pk.value / _BAR, interval_text(pk),
+                       _COLORS.get(pk.name, "k"))
+        f = cp.fcp
+        if f is not None and f.found and f.t is not None:
+            if f.low is not None and f.high is not None:
+                ax.errorbar([f.t / 60], [f.value / _BAR],
+                            yerr=[[(f.value - f.low) / _BAR], [(f.high - f.value) / _BAR]],
+                            color="k", capsize=3, lw=1.2, zorder=6,
+                            label=None if "c" in seen else "consensus FCP and its interval")
+                seen.add("c")
+            placer.add(ax, f.t / 60, f.value / _BAR, interval_text(f, "FCP (consensus)"),
+                       "k")
+    _margin(ax, 0.12)
+    ax.set_ylabel(f"pressure [bar]\n{rec.reference.describe()}", fontsize=9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7, framealpha=0.85)
     ax.grid(alpha=0.3)
     if rec.rate is not None:
         axr.plot(tm, rec.rate * _LPM, color="tab:red", lw=0.9, label="pump rate")
@@ -207,12 +230,15 @@ def plot_overview(record_picks: RecordPicks) -> Figure:
     if rec.rate is None and rec.return_rate is None and rec.return_volume is None:
         _no_data(axr, "no rate recorded")
     else:
-        axr.legend(loc="upper right", fontsize=8)
+        axr.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     axr.set_ylabel("rate [l/min]")
     axr.set_xlabel("time [min]")
     axr.grid(alpha=0.3)
-    src = ", ".join(rec.sources) if rec.sources else "record"
-    fig.suptitle(f"{src}: pressure and rate", fontsize=10)
+    from pathlib import PurePath
+
+    src = " + ".join(PurePath(s).name for s in rec.sources) if rec.sources else "record"
+    fig.suptitle(f"{src}\npressure and rate, every pick with its interval", fontsize=9)
+    placer.place(fig)
     return fig
 
 
@@ -234,201 +260,206 @@ def plot_p_v(record: Record, cp: CyclePicks) -> Figure:
     else:
         _no_data(ax, "no pumped volume or rate")
         return fig
+    tt = record.t[i0:i1]
     p = record.pressure[i0:i1]
-    ax.plot(v * 1000, p / _BAR, ".", ms=2, color="tab:blue", label="pump-in")
+    ax.plot(v * 1000, p / _BAR, ".", ms=2, color="tab:blue", label="pumping")
     key = "LOP" if cp.get("LOP") is not None else "Pr"
     pk = cp.get(key)
-    if pk is not None and "slope" in pk.details:
-        d = {"line": {"slope": pk.details["slope"], "intercept": pk.details["intercept"],
-                      "x_range": pk.details.get("V_range", (float(v.min()), float(v.max())))}}
-        _draw_lines(ax, d, (float(v.min()), float(v.max())), xscale=1000, yscale=1 / _BAR,
-                    color="tab:orange")
-    elif cp.stiffness is not None:
-        # Line with the cycle's stiffness through the median of the lower half.
-        sel = p <= np.median(p)
-        c = float(np.median(p[sel] - cp.stiffness * v[sel]))
-        xx = np.linspace(0, float(v.max()), 20)
-        ax.plot(xx * 1000, (cp.stiffness * xx + c) / _BAR, "--", color="tab:orange", lw=1)
+    placer = LabelPlacer()
+    if pk is not None and "slope" in pk.details and "V_range" in pk.details:
+        stiff = pk.details.get("stiffness")
+        lab = "pressurisation line" + (f" ({stiff / _BAR:.4g} bar/m³)" if stiff else "")
+        _draw_line(ax, {"slope": pk.details["slope"], "intercept": pk.details["intercept"],
+                        "x_range": pk.details["V_range"]}, lab, "tab:orange",
+                   xscale=1000, yscale=1 / _BAR, pad=0.3)
+    if pk is not None and pk.window is not None:
+        _window(ax, *(np.interp(pk.window, tt, v) * 1000), label="straight stretch used")
     if pk is not None and pk.found and pk.t is not None:
-        vp = float(np.interp(pk.t, record.t[i0:i1], v))
-        _label_pick(ax, vp * 1000, pk.value / _BAR, f"{key} {pk.value / _BAR:.1f} bar",
-                    _COLORS[key])
-    if cp.stiffness is not None:
-        ax.text(0.98, 0.04, f"stiffness {cp.stiffness / _BAR:.4g} bar/m³",
-                transform=ax.transAxes, ha="right", fontsize=8)
-    ax.set_xlabel("pumped volume [l]")
-    ax.set_ylabel("pressure [bar]")
-    ax.set_title(f"cycle {cp.index}: pressure vs pumped volume", fontsize=10)
-    ax.grid(alpha=0.3)
+        vp = float(np.interp(pk.t, tt, v))
+        _hband(ax, pk, _COLORS[key])
+        placer.add(ax, vp * 1000, pk.value / _BAR, interval_text(pk), _COLORS[key])
+    fbp = cp.get("FBP")
+    if fbp is not None and fbp.found and fbp.t is not None:
+        placer.add(ax, float(np.interp(fbp.t, tt, v)) * 1000, fbp.value / _BAR,
+                   interval_text(fbp), _COLORS["FBP"])
+    _margin(ax)
+    _finish(ax, "pumped volume [l]", "pressure [bar]",
+            f"cycle {cp.index}: pressure vs pumped volume", loc="lower right")
+    placer.place(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- shut-in plots
 def _curves(record: Record, cp: CyclePicks) -> dict[str, np.ndarray] | None:
-    """Post-drop shut-in curves: from the shut-in module when available (so the plots use
-    exactly the abscissae and derivatives of the picks), else computed here."""
-    try:
-        from xlotkit.interpret.picks.shutin import shutin_curves
-    except ImportError:
-        shutin_curves = None
-    if shutin_curves is not None:
-        try:
-            c = shutin_curves(record, cp.cycle)
-        except Exception:  # noqa: BLE001 -- fall back to the local curves below
-            c = None
-        if c is not None:
-            return c
-    sh = _phase(cp, "shut_in")
-    t_s = _shutin_time(record, cp)
-    if sh is None or t_s is None or sh.i1 - sh.i0 < 5:
-        return None
-    t = record.t[sh.i0:sh.i1]
-    p = record.pressure[sh.i0:sh.i1]
-    ok = t > t_s
-    t, p = t[ok], p[ok]
-    dt = t - t_s
-    G = g_function(dt / _pump_time(record, cp, t_s))
-    st = np.sqrt(dt)
-    d_g = _local_slope(G, p)
-    return {"t": t, "dt": dt, "p": p, "sqrt_t": st, "dp_dsqrt_t": _local_slope(st, p),
-            "G": G, "dp_dG": d_g, "G_dp_dG": -G * d_g, "dp_dt": _local_slope(dt, p)}
+    """Post-drop shut-in curves of the shut-in module (the picks' own abscissae)."""
+    from xlotkit.interpret.picks.shutin import shutin_curves
+
+    return shutin_curves(record, cp.cycle)
 
 
 def g_function(dt_d: np.ndarray) -> np.ndarray:
-    """Nolte's G-function for ``alpha = 1`` (used only when the shut-in module is missing):
+    """Nolte's G-function for ``alpha = 1`` of dimensionless shut-in time (see
+    :func:`xlotkit.interpret.picks.shutin.g_function`)."""
+    from xlotkit.interpret.picks.shutin import nolte_g
 
-    .. math:: G = \\frac{4}{\\pi}\\left(g(\\Delta t_D) - g(0)\\right),\\quad
-              g(\\delta) = \\tfrac43\\left((1+\\delta)^{3/2} - \\delta^{3/2}\\right),
-
-    with :math:`\\Delta t_D = (t - t_s)/t_p` (shut-in time over pumping time).
-    """
-    d = np.clip(np.asarray(dt_d, float), 0.0, None)
-    g = 4.0 / 3.0 * ((1.0 + d) ** 1.5 - d ** 1.5)
-    return 4.0 / np.pi * (g - 4.0 / 3.0)
+    return 4.0 / np.pi * (nolte_g(dt_d) - 4.0 / 3.0)
 
 
-def _mark_closure_x(ax, cp: CyclePicks, method: str, x_of: Any, label_y=None) -> None:
-    pk = cp.get("FCP", method)
-    if pk is None or not pk.found:
-        return
-    x = x_of(pk)
-    if x is None or not np.isfinite(x):
-        return
-    col = _METHOD_COLORS.get(method, "tab:green")
-    ax.axvline(x, color=col, ls=":", lw=1)
-    y = pk.value / _BAR if label_y is None else label_y
-    _label_pick(ax, x, y, f"FCP {method} {pk.value / _BAR:.1f} bar", col)
+def _x_of_t(c, x, tt):
+    return float(np.interp(tt, c["t"], x)) if tt is not None else None
 
 
-def _consensus_line(ax, cp: CyclePicks) -> None:
-    if cp.fcp is not None and cp.fcp.found:
-        ax.axhline(cp.fcp.value / _BAR, color="k", lw=0.6, ls="-.",
-                   label=f"consensus FCP {cp.fcp.value / _BAR:.1f} bar")
+def _closure_marks(ax, placer, cp, c, x, methods, y_of=None):
+    """Vertical line and label of each closure method found (x from its time)."""
+    for m in methods:
+        pk = cp.get("FCP", m)
+        if pk is None or not pk.found or pk.t is None:
+            continue
+        xm = _x_of_t(c, x, pk.t)
+        col = _METHOD_COLORS.get(m, "tab:green")
+        ax.axvline(xm, color=col, ls=":", lw=1)
+        placer.add(ax, xm, pk.value / _BAR if y_of is None else y_of(pk),
+                   interval_text(pk, f"FCP ({METHOD_WORDS[m]})"), col)
+
+
+def _consensus_band(ax, cp: CyclePicks) -> None:
+    f = cp.fcp
+    if f is not None and f.found:
+        ax.axhline(f.value / _BAR, color="k", lw=0.7, ls="-.",
+                   label=f"consensus FCP {f.value / _BAR:.1f} bar")
 
 
 def plot_sqrt_t(record: Record, cp: CyclePicks) -> Figure:
-    """Shut-in pressure and dP/d sqrt(dt) against sqrt(dt), the fitted line, closure."""
+    """Shut-in pressure and dP/d sqrt(dt) against sqrt(dt): the lines before and after
+    closure, the window, the closure and its interval."""
     fig, ax = _fig()
     c = _curves(record, cp)
     if c is None or c["t"].size < 5:
         _no_data(ax, "no usable shut-in")
         return fig
     x, p = c["sqrt_t"], c["p"]
-    ax.plot(x, p / _BAR, ".", ms=2, color="tab:blue", label="pressure")
+    ax.plot(x, p / _BAR, ".", ms=2, color="tab:blue", label="shut-in pressure")
     pk = cp.get("FCP", "sqrt_t")
-    if pk is not None:
-        _draw_lines(ax, pk.details, (float(x.min()), float(x.max())), yscale=1 / _BAR,
-                    color="k")
-    t_s = float(c["t"][0] - c["dt"][0])
-    _mark_closure_x(ax, cp, "sqrt_t", lambda k: k.details.get(
-        "sqrt_t_pick", np.sqrt(max(k.t - t_s, 0.0)) if k.t is not None else None))
-    _consensus_line(ax, cp)
+    placer = LabelPlacer()
+    if pk is not None and pk.found:
+        d = pk.details
+        if "slope" in d and "sqrt_t_range" in d:
+            _draw_line(ax, {"slope": d["slope"], "intercept": d["intercept"],
+                            "x_range": d["sqrt_t_range"]}, "line before closure", "k",
+                       yscale=1 / _BAR)
+        la = d.get("line_after")
+        if isinstance(la, Mapping):
+            _draw_line(ax, la, "line after closure", "tab:red", yscale=1 / _BAR)
+        if pk.window is not None:
+            _window(ax, _x_of_t(c, x, pk.window[0]), _x_of_t(c, x, pk.window[1]))
+        _hband(ax, pk, _METHOD_COLORS["sqrt_t"])
+    _closure_marks(ax, placer, cp, c, x, ("sqrt_t",))
+    _consensus_band(ax, cp)
     ax2 = ax.twinx()
-    ax2.plot(x, -c["dp_dsqrt_t"] / _BAR, color="tab:red", lw=0.8, label="−dP/d√t")
+    ax2.plot(x, -c["dp_dsqrt_t"] / _BAR, color="tab:red", lw=0.7, alpha=0.7,
+             label="pressure derivative −dP/d√t (right axis)")
     ax2.set_ylabel("−dP/d√t [bar/√s]", color="tab:red")
-    ax.set_xlabel("√(t − t_shut-in) [√s]")
-    ax.set_ylabel("pressure [bar]")
-    ax.legend(fontsize=8, loc="upper right")
-    ax.set_title(f"cycle {cp.index}: square-root-of-time plot", fontsize=10)
-    ax.grid(alpha=0.3)
+    _margin(ax)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    _finish(ax, "√(time since pump stop) [√s]", "pressure [bar]",
+            f"cycle {cp.index}: square-root-of-time plot")
+    ax.legend(h1 + h2, l1 + l2, fontsize=7.5, loc="upper right", framealpha=0.85)
+    placer.place(fig)
     return fig
 
 
-def plot_g_function(record: Record, cp: CyclePicks) -> Figure:
-    """G-function plot: p, dP/dG and G dP/dG against G, the line through the origin, closure
-    (G-function and compliance picks)."""
+def plot_g_function(record: Record, cp: CyclePicks, diagnosis=None) -> Figure:
+    """G-function plot: p, dP/dG and G dP/dG against G, the straight line through the
+    origin, closure at the departure (G-function and compliance picks) with its interval,
+    and the leak-off diagnosis in words."""
+    from xlotkit.interpret.diagnostics.gfunction import diagnose_g_function
+
     fig, ax = _fig()
     c = _curves(record, cp)
     if c is None or c["t"].size < 5:
         _no_data(ax, "no usable shut-in")
         return fig
     G, p = c["G"], c["p"]
-    ax.plot(G, p / _BAR, ".", ms=2, color="tab:blue", label="pressure")
-    ax.set_ylabel("pressure [bar]")
-    ax2 = ax.twinx()
-    ax2.plot(G, -c["dp_dG"] / _BAR, color="tab:orange", lw=0.8, label="−dP/dG")
-    ax2.plot(G, c["G_dp_dG"] / _BAR, color="tab:red", lw=1.0, label="−G·dP/dG")
     pk = cp.get("FCP", "g_function")
-    if pk is not None and "slope" in pk.details:
-        # p = p1 - m G on the straight stretch, hence G dP/dG = m G through the origin.
-        m = -float(pk.details["slope"])
-        _draw_lines(ax, pk.details, (float(G.min()), float(G.max())), yscale=1 / _BAR,
-                    color="k")
-        gg = np.linspace(0, float(np.nanmax(G)), 20)
-        ax2.plot(gg, m * gg / _BAR, "--", color="k", lw=0.8, label="m·G (through origin)")
-    t_s = float(c["t"][0] - c["dt"][0])
-
-    def g_at(k: Pick):
-        if "G_pick" in k.details:
-            return float(k.details["G_pick"])
-        return float(np.interp(k.t - t_s, c["dt"], G)) if k.t is not None else None
-
-    _mark_closure_x(ax, cp, "g_function", g_at)
-    _mark_closure_x(ax, cp, "compliance", g_at)
-    if pk is not None and "diagnosis" in pk.details:
-        ax.text(0.02, 0.03, f"decline: {str(pk.details['diagnosis']).replace('_', ' ')}",
-                transform=ax.transAxes, fontsize=8)
-    ax2.set_ylabel("derivatives [bar]")
+    diag = diagnosis
+    if diag is None:
+        closure = pk if pk is not None and pk.found else None
+        diag = diagnose_g_function(record, cp.cycle, closure)
+    ax.plot(G, p / _BAR, ".", ms=2, color="tab:blue", label="shut-in pressure (left axis)")
+    placer = LabelPlacer()
+    if pk is not None and pk.found:
+        d = pk.details
+        if "slope" in d and "G_range" in d:
+            _draw_line(ax, {"slope": d["slope"], "intercept": d["intercept"],
+                            "x_range": d["G_range"]}, "pressure line before closure", "k",
+                       yscale=1 / _BAR)
+        if pk.window is not None:
+            _window(ax, _x_of_t(c, G, pk.window[0]), _x_of_t(c, G, pk.window[1]))
+        _hband(ax, pk, _METHOD_COLORS["g_function"])
+    _closure_marks(ax, placer, cp, c, G, ("g_function", "compliance"))
+    ax2 = ax.twinx()
+    ax2.plot(G, c["G_dp_dG"] / _BAR, color="tab:red", lw=1.1, label="G·dP/dG (right axis)")
+    ax2.plot(G, -c["dp_dG"] / _BAR, color="tab:orange", lw=0.8, alpha=0.8,
+             label="dP/dG (right axis)")
+    if diag is not None and diag.m is not None:
+        gg = np.linspace(0.0, float(np.nanmax(G)), 30)
+        ax2.plot(gg, diag.m * gg / _BAR, "--", color="k", lw=0.9,
+                 label="straight line through the origin, m·G")
+    ax2.set_ylabel("G·dP/dG and dP/dG [bar]")
+    lo, hi = ax2.get_ylim()
+    ax2.set_ylim(0.0, hi)
+    if diag is not None:
+        ax.text(0.02, 0.03, f"leak-off diagnosis: {diag.words}\n{diag.reason}",
+                transform=ax.transAxes, fontsize=7.5, va="bottom", wrap=True,
+                bbox=dict(boxstyle="round", fc="white", ec="0.6", alpha=0.9))
+    _margin(ax, 0.18)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax2.legend(h1 + h2, l1 + l2, fontsize=8, loc="center right")
-    ax.set_xlabel("G-function")
-    ax.set_title(f"cycle {cp.index}: G-function plot", fontsize=10)
-    ax.grid(alpha=0.3)
+    _finish(ax, "G-function (Nolte, α = 1)", "pressure [bar]",
+            f"cycle {cp.index}: G-function plot")
+    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right", framealpha=0.85)
+    placer.place(fig)
     return fig
 
 
 def plot_bilinear(record: Record, cp: CyclePicks) -> Figure:
-    """Haimson's bilinear plot: pressure decay rate dp/dt against p, both lines, closure."""
+    """Haimson's bilinear plot: decay rate dp/dt against p, both lines, closure and its
+    interval."""
     fig, ax = _fig()
     c = _curves(record, cp)
     if c is None or c["t"].size < 5:
         _no_data(ax, "no usable shut-in")
         return fig
     p, dpdt = c["p"], c["dp_dt"]
-    ax.plot(p / _BAR, dpdt / _BAR * 60, ".", ms=2, color="tab:blue", label="dp/dt")
+    ax.plot(p / _BAR, dpdt / _BAR * 60, ".", ms=2, color="tab:blue", label="decay rate dp/dt")
     pk = cp.get("FCP", "bilinear")
+    placer = LabelPlacer()
     d = pk.details if pk is not None else {}
     if pk is not None and pk.found and {"s_closed", "s_open", "dpdt_at_closure"} <= set(d):
-        # Hinge y = y0 + s (p - x0): s_closed below the break, s_open above it.
         x0, y0 = float(pk.value), float(d["dpdt_at_closure"])
-        for s, (a, b), col, lab in ((d["s_closed"], (p.min(), x0), "tab:red", "closed"),
-                                    (d["s_open"], (x0, p.max()), "tab:orange", "open")):
+        for s, (a, b), col, lab in ((d["s_closed"], (p.min(), x0), "tab:red",
+                                     "closed-fracture line"),
+                                    (d["s_open"], (x0, p.max()), "tab:orange",
+                                     "open-fracture line")):
             xx = np.linspace(a, b, 20)
             ax.plot(xx / _BAR, (y0 + s * (xx - x0)) / _BAR * 60, "--", color=col, lw=1.2,
                     label=lab)
-    if pk is not None and pk.found:
-        ax.axvline(pk.value / _BAR, color="tab:green", ls=":", lw=1)
-        ax.annotate(f"FCP {pk.value / _BAR:.1f} bar", (pk.value / _BAR, 0.95),
-                    xycoords=("data", "axes fraction"), fontsize=8, color="tab:green")
+        _vband(ax, pk.low / _BAR, pk.high / _BAR, _METHOD_COLORS["bilinear"],
+               _band_label(pk))
+        placer.add(ax, x0 / _BAR, y0 / _BAR * 60, interval_text(pk, "FCP (bilinear)"),
+                   _METHOD_COLORS["bilinear"])
+    _margin(ax)
     _finish(ax, "pressure [bar]", "dp/dt [bar/min]",
             f"cycle {cp.index}: bilinear pressure-decay-rate plot")
+    placer.place(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- flowback
 def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
-    """sqrt(choke pressure) against time in the flowback, both tangents and closure."""
+    """sqrt(choke pressure) against time in the flowback: both lines and their windows,
+    closure and its interval."""
     from xlotkit.interpret.picks.flowback import choke_pressure
 
     fig, ax = _fig()
@@ -447,29 +478,41 @@ def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
     ax.plot(t - t0, y / np.sqrt(_BAR), ".", ms=2, color="tab:blue",
             label="√(choke pressure)")
     pk = cp.get("FCP", "flowback_sqrt_p")
+    placer = LabelPlacer()
     if pk is not None and "line_open" in pk.details:
-        # Lines are y = s t + c in absolute time; shift to time since flowback start.
-        for name, col in (("line_open", "tab:orange"), ("line_closed", "tab:red")):
-            xx, yy = _extended_line(pk.details[name])
-            ok = yy >= 0
-            ax.plot(xx[ok] - t0, yy[ok] / np.sqrt(_BAR), "--", color=col, lw=1.2,
-                    label=("open fracture (compliant)" if name == "line_open"
-                           else "closed fracture (stiff)"))
+        d = pk.details
+        for key, col, lab, wkey in (
+                ("line_open", "tab:orange", "open-fracture line (compliant)", "window_open"),
+                ("line_closed", "tab:red", "closed-fracture line (stiff)", "window_closed")):
+            _draw_line(ax, d[key], lab, col, yscale=1 / np.sqrt(_BAR), xshift=t0, pad=0.3)
+            w = d.get(wkey)
+            if w is not None:
+                ax.axvspan(w[0] - t0, w[1] - t0, color=col, alpha=0.07, lw=0,
+                           label=f"window of the {lab.split(' (')[0]}")
     if pk is not None and pk.found:
         tc = pk.details["t_closure"] - t0
         yc = pk.details["sqrt_p_closure"] / np.sqrt(_BAR)
+        off = pk.value - pk.details["sqrt_p_closure"] ** 2
+
+        def fy(pp):
+            return np.sqrt(max(pp - off, 0.0)) / np.sqrt(_BAR)
+
+        _hband(ax, pk, "tab:green", fy)
         ax.axvline(tc, color="tab:green", ls=":", lw=1)
-        _label_pick(ax, tc, yc, f"closure: FCP {pk.value / _BAR:.1f} bar "
-                    f"({record.reference.kind})", "tab:green")
+        placer.add(ax, tc, yc, interval_text(pk, f"FCP ({record.reference.kind})"),
+                   "tab:green")
     elif pk is not None:
         _no_data(ax, pk.message[:90])
-    _finish(ax, "time since flowback start [s]", "√(p_choke − p_atm) [√bar]",
-            f"cycle {cp.index}: flowback through fixed choke")
+    _margin(ax)
+    _finish(ax, "time since flowback start [s]", "√(choke pressure) [√bar]",
+            f"cycle {cp.index}: flowback through a fixed choke", loc="upper right")
+    placer.place(fig)
     return fig
 
 
 def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
-    """Pressure against returned volume in the flowback, both stiffness lines and closure."""
+    """Pressure against returned volume in the flowback: both stiffness lines and their
+    windows, closure and its interval."""
     from xlotkit.interpret.picks.flowback import returned_volume
 
     fig, ax = _fig()
@@ -482,42 +525,70 @@ def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
         _no_data(ax, "no returned volume recorded")
         return fig
     p = record.pressure[fb.i0:fb.i1]
+    t = record.t[fb.i0:fb.i1]
     ax.plot(v * 1000, p / _BAR, ".", ms=2, color="tab:blue", label=f"flowback ({src})")
     pk = cp.get("FCP", "flowback_p_v")
+    placer = LabelPlacer()
     if pk is not None and "line_open" in pk.details:
-        for name, col, key in (("line_open", "tab:orange", "stiffness_open"),
-                               ("line_closed", "tab:red", "stiffness_closed")):
-            xx, yy = _extended_line(pk.details[name])
-            ax.plot(xx * 1000, yy / _BAR, "--", color=col,
-                    lw=1.2, label=f"{name.split('_')[1]}: S = "
-                    f"{pk.details[key] / _BAR:.4g} bar/m³")
+        d = pk.details
+        vm = np.maximum.accumulate(v)
+        for key, col, lab, skey, wkey in (
+                ("line_open", "tab:orange", "open fracture", "stiffness_open", "window_open"),
+                ("line_closed", "tab:red", "closed fracture", "stiffness_closed",
+                 "window_closed")):
+            _draw_line(ax, d[key], f"{lab}: stiffness {d[skey] / _BAR:.4g} bar/m³", col,
+                       xscale=1000, yscale=1 / _BAR, pad=0.3)
+            w = d.get(wkey)
+            if w is not None:
+                ax.axvspan(*(np.interp(w, t, vm) * 1000), color=col, alpha=0.07, lw=0,
+                           label=f"window of the {lab} line")
     if pk is not None and pk.found:
-        vc = pk.details["volume_closure"] * 1000
-        _label_pick(ax, vc, pk.value / _BAR, f"FCP {pk.value / _BAR:.1f} bar", "tab:green")
+        _hband(ax, pk, "tab:green")
+        placer.add(ax, pk.details["volume_closure"] * 1000, pk.value / _BAR,
+                   interval_text(pk), "tab:green")
     elif pk is not None:
         _no_data(ax, pk.message[:90])
+    _margin(ax)
     _finish(ax, "returned volume [l]", f"pressure [bar] ({record.reference.kind})",
-            f"cycle {cp.index}: pressure vs returned volume")
+            f"cycle {cp.index}: pressure vs returned volume", loc="upper right")
+    placer.place(fig)
     return fig
 
 
 # --------------------------------------------------------------------------- all
-def pick_figures(record_picks: RecordPicks) -> dict[str, Figure]:
+def pick_figures(record_picks: RecordPicks, diagnostics=None) -> dict[str, Figure]:
     """Every plot of a record's picks, keyed by a file-name stem.
 
     ``overview``; for each LOT/XLOT cycle ``cycle<i>_p_v``, and where the cycle has the phase
-    ``cycle<i>_sqrt_t``, ``cycle<i>_g_function``, ``cycle<i>_bilinear`` (shut-in) and
+    ``cycle<i>_sqrt_t``, ``cycle<i>_g_function``, ``cycle<i>_bilinear``,
+    ``cycle<i>_loglog``, ``cycle<i>_after_closure`` (shut-in) and
     ``cycle<i>_flowback_sqrt_p``, ``cycle<i>_flowback_p_v`` (flowback).
+
+    Parameters
+    ----------
+    record_picks : RecordPicks
+    diagnostics : RecordDiagnostics, optional
+        The shut-in diagnostics (computed when not given).
     """
+    from xlotkit.interpret.diagnostics import diagnose_record
+    from xlotkit.interpret.plots.diagnostics import plot_after_closure, plot_loglog
+
     rec = record_picks.record
+    if diagnostics is None:
+        diagnostics = diagnose_record(record_picks)
     figs: dict[str, Figure] = {"overview": plot_overview(record_picks)}
     for cp in record_picks.test_cycles:
         i = cp.index
         figs[f"cycle{i}_p_v"] = plot_p_v(rec, cp)
         if _phase(cp, "shut_in") is not None:
+            cd = diagnostics.cycle(i)
             figs[f"cycle{i}_sqrt_t"] = plot_sqrt_t(rec, cp)
-            figs[f"cycle{i}_g_function"] = plot_g_function(rec, cp)
+            figs[f"cycle{i}_g_function"] = plot_g_function(
+                rec, cp, cd.g_function if cd is not None else None)
             figs[f"cycle{i}_bilinear"] = plot_bilinear(rec, cp)
+            if cd is not None:
+                figs[f"cycle{i}_loglog"] = plot_loglog(cp, cd)
+                figs[f"cycle{i}_after_closure"] = plot_after_closure(cp, cd)
         if _phase(cp, "flowback") is not None:
             figs[f"cycle{i}_flowback_sqrt_p"] = plot_flowback_sqrt_p(rec, cp)
             figs[f"cycle{i}_flowback_p_v"] = plot_flowback_p_v(rec, cp)
