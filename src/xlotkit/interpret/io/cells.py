@@ -19,9 +19,10 @@ __all__ = ["MISSING_MARKERS", "NumberColumn", "cell_kind", "numbers"]
 
 NUM_POINT = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 NUM_COMMA = re.compile(r"^[-+]?\d*,\d+([eE][-+]?\d+)?$")
-# 3,431 / 12,345,678.5 (thousands commas) and 1.234,5 (thousands points)
-NUM_THOUSANDS_COMMA = re.compile(r"^[-+]?\d{1,3}(,\d{3})+(\.\d*)?$")
-NUM_THOUSANDS_POINT = re.compile(r"^[-+]?\d{1,3}(\.\d{3})+(,\d*)?$")
+# 3,431 / 12,345,678.5 (thousands commas) and 1.234,5 (thousands points); a grouped number
+# never starts with 0, so 0,500 can only be a decimal comma
+NUM_THOUSANDS_COMMA = re.compile(r"^[-+]?[1-9]\d{0,2}(,\d{3})+(\.\d*)?$")
+NUM_THOUSANDS_POINT = re.compile(r"^[-+]?[1-9]\d{0,2}(\.\d{3})+(,\d*)?$")
 # a comma that can only be a decimal comma: not three digits after it, or a long integer part
 NUM_COMMA_STRICT = re.compile(r"^[-+]?(\d*,(\d{1,2}|\d{4,})|\d{4,},\d+)([eE][-+]?\d+)?$")
 DATE_TIME = re.compile(
@@ -81,6 +82,17 @@ def _text(series: pd.Series) -> pd.Series:
     return series.astype(object).where(series.notna(), "").astype(str).str.strip()
 
 
+def _grouped_where_due(plain: np.ndarray) -> bool:
+    """Whether the plain cells of a column whose commas read both ways are whole numbers below
+    1000, not all zero: then the column writes a comma exactly where a thousands separator is
+    due (950, 3,500), while a decimal-comma writer would have put the same number of decimals
+    on the whole numbers too (950,000) or trimmed them from the others (3,5). Zeros alone do
+    not decide: loggers often write an exact zero as ``0`` whatever their format."""
+    plain = plain[np.isfinite(plain)]
+    return bool(np.any(plain != 0.0)) and bool(np.all(np.abs(plain) < 1000.0)) and \
+        bool(np.all(plain == np.round(plain)))
+
+
 def numbers(series: pd.Series, *, lines: np.ndarray, label: str, name: str,
             decimal: str | None = None) -> NumberColumn:
     """Numbers of one column; pandas already parsed the plain ones.
@@ -129,6 +141,8 @@ def numbers(series: pd.Series, *, lines: np.ndarray, label: str, name: str,
                     how = "thousands"           # 3,431.5 somewhere in the column
                 elif plain.size and float(np.nanmax(np.abs(plain))) >= 1000.0:
                     how = "decimal"             # 1234 written without a thousands comma
+                elif plain.size and _grouped_where_due(plain.to_numpy(dtype=float)):
+                    how = "thousands"           # 950 plain, 3,500 grouped: commas start at 1000
                 else:
                     i = int(np.flatnonzero(bad)[0])
                     raise InputError(
