@@ -143,7 +143,8 @@ def test_toml_syntax_error_has_the_line(tmp_path):
     ({"mesh": {"growth": 1.3}}, "mesh"),
     ({"effects": {"heterogeneity": True}}, "effects.heterogeneity"),
     ({"effects": {"poroelastic": True}}, "effects.poroelastic"),
-    ({"effects": {"shear_dilation": True}}, "effects.shear_dilation"),
+    ({"effects": {"shear_dilation": True}, "rock": {"dilation_angle": "5 deg"}},
+     "effects.shear_dilation"),
     ({"effects": {"strength_scaling": True}}, "effects.strength_scaling"),
     ({"effects": {"interface": [{"start": [1, -1], "end": ["1 m", "1 m"]}]}},
      "effects.interface"),
@@ -224,3 +225,26 @@ def test_fracture_plane_and_toughness_are_checked():
                                 effects={"fracture_plane": True},
                                 rock={"fracture_friction_angle": "5 deg"}))
     assert sc.rock.fracture_friction_angle == 5.0 and sc.resolved_model == "mdem"
+
+
+@pytest.mark.parametrize("sections, found", [
+    ({"effects": {"shear_dilation": True}}, "needs a dilation angle"),
+    ({"rock": {"dilation_angle": "5 deg"}}, "only used with shear dilation"),
+])
+def test_dilation_angle_and_shear_dilation_come_together(sections, found):
+    """Neither is accepted without the other: a dilation angle with dilation off would be
+    read and ignored, dilation without an angle would need an invented one."""
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(**sections), file="s.toml")
+    assert ei.value.key == "rock.dilation_angle" and found in ei.value.message
+
+
+def test_dilation_angle_reaches_the_model():
+    from xlotkit.sim.coupling.build import build_model
+
+    d = _scene(effects={"shear_dilation": True}, rock={"dilation_angle": "8 deg"},
+               mesh={"growth": 1.3})
+    model, _ = build_model(scene_from_dict(d))
+    assert model.dilation_angle == pytest.approx(np.radians(8.0), rel=1e-12)
+    model_off, _ = build_model(scene_from_dict(_scene(mesh={"growth": 1.3})))
+    assert model_off.dilation_angle is None

@@ -102,10 +102,30 @@ def test_heterogeneity_50_percent():
 
 
 def test_shear_dilation_on():
+    """Dilation on: stable, and the run's own slipped cracks carry the dilated aperture."""
+    psi = 10.0
     r = run(scene_dict(effects={"strength_scaling": True, "shear_dilation": True},
+                       rock={"dilation_angle": psi},
                        schedule=_pump("300 l/min", "1 m3")), stop_length=STOP)
     assert_stable(r)
     _broke_down(r)
+    cm, st = r.engine.cm, r.engine.stepper.state
+    ms = st.mechanics
+    cs = st.cluster_state
+    gap = np.asarray(ms.gap)
+    k_dil, _, wn, _ = cm.crack_permeability(cs, gap, ms.slip)
+    k_plain, _, _, _ = cm.crack_permeability(cs, gap)
+    us = np.where(cs != 0, np.max(np.abs(np.asarray(ms.slip)), axis=1), 0.0)
+    slipped = us > 0
+    assert slipped.any(), "no failed cluster slipped: the case does not exercise dilation"
+    # the cubic law by hand (k = k_m + w_h^3 / (12 Delta)) with w_h = w_res + w_n +
+    # tan(psi) |u_s|: an independent evaluation of the model's permeability
+    wh = cm.residual_aperture + wn + np.tan(np.radians(psi)) * us
+    delta = np.broadcast_to(cm.length_scale, cs.shape)
+    km = cm.flow.permeability
+    expect = np.where(cs != 0, km + wh**3 / (12.0 * delta), km)
+    assert np.allclose(k_dil, expect, rtol=1e-12, atol=0.0)
+    assert np.all(k_dil[slipped] > k_plain[slipped])
 
 
 def _two_cycles(flowback_rate: str, flowback_to: str) -> dict:

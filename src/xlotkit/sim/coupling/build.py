@@ -152,6 +152,8 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
                      height=geo.segment_height)
     h = geo.segment_height
     extra = max(total_well_compliance(scene) - float(flow.well_storage), 0.0) / h
+    psi = (math.radians(rk.dilation_angle) if eff.shear_dilation else None)
     model = CoupledModel(mech, flow, residual_aperture=RESIDUAL_APERTURE,
-                         well_compliance=extra, check_storage=eff.poroelastic)
+                         well_compliance=extra, check_storage=eff.poroelastic,
+                         dilation_angle=psi)
     return model, pw0

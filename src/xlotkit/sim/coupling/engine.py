@@ -514,7 +514,8 @@ class MDEMEngine:
     def _crack_open(self, st: CoupledState) -> np.ndarray:
         """Per cluster: 1 open crack, 0 closed crack, -1 intact."""
         cs = st.cluster_state
-        _, _, wn, _ = self.cm.crack_permeability(cs, np.asarray(st.mechanics.gap))
+        _, _, wn, _ = self.cm.crack_permeability(cs, np.asarray(st.mechanics.gap),
+                                                 st.mechanics.slip)
         return np.where(cs != 0, (wn > 0).astype(np.int64), -1)
 
     def _track_events(self, ph, old: CoupledState, new: CoupledState, r) -> None:
@@ -568,7 +569,8 @@ class MDEMEngine:
         cm = self.cm
         ms = st.mechanics
         gap = np.zeros((cm.n_cells, 3)) if ms is None else np.asarray(ms.gap)
-        k, _, wn, _ = cm.crack_permeability(st.cluster_state, gap)
+        k, _, wn, _ = cm.crack_permeability(st.cluster_state, gap,
+                                            None if ms is None else ms.slip)
         u = np.asarray(st.displacement) - cm.u0.reshape(-1, 2)
         return Snapshot(time=st.t, points=cm.mesh.nodes, triangles=cm.mesh.triangles,
                         point_data={"displacement": u},

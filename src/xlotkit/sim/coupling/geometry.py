@@ -66,7 +66,7 @@ def fracture_summary(model: CoupledModel, state: CoupledState) -> FractureSummar
     cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
     ms = state.mechanics
     gap = np.zeros((len(cs), 3)) if ms is None else np.asarray(ms.gap)
-    _, _, wn, _ = model.crack_permeability(cs, gap)
+    _, _, wn, _ = model.crack_permeability(cs, gap, None if ms is None else ms.slip)
     vol = float(np.sum((np.asarray(state.flow.extra_pore_volume)
                         - np.asarray(state.failure_volume))[cracked]))
     n_t = int(np.sum(cs == FAILED_TENSILE))

@@ -71,6 +71,7 @@ from xlotkit.sim.flow.fracture import (
     crack_opening,
     crack_permeability,
     crack_permeability_derivative,
+    hydraulic_aperture,
 )
 from xlotkit.sim.mechanics import (
     FAILED_SHEAR,
@@ -345,6 +346,13 @@ class CoupledModel:
         Refuse a pore compressibility above the grain term (double counting).
     residual_aperture : float
         ``w_res`` [m] of failed clusters (a closed crack's hydraulic aperture).
+    dilation_angle : float, optional
+        Shear-dilation angle ``psi`` [rad] in ``(0, pi/2)``: a failed cluster's hydraulic
+        aperture gains ``tan(psi) |u_s|``, ``u_s`` the largest committed slip of its
+        contacts (thesis 4.7.2: asperities riding over each other keep a sheared crack
+        hydraulically open after it closes mechanically). ``None`` (default): no dilation.
+        The slip is the one committed at the start of the step (lagged), so the term adds
+        no Jacobian entries.
     length_scale : float or ndarray (m,), optional
         ``Delta`` [m] of Eq. 4.3; default ``sqrt(A)`` per cell.
     well_compliance : float
@@ -378,7 +386,8 @@ class CoupledModel:
                  length_scale=None, well_compliance: float = 0.0,
                  well_rate: WellRateFunction | None = None,
                  hole_volume_change: bool = True,
-                 failure_dilatation: str = "pore") -> None:
+                 failure_dilatation: str = "pore",
+                 dilation_angle: float | None = None) -> None:
         if not isinstance(mechanics, MechanicsModel):
             raise InputError("expected a MechanicsModel", key="mechanics")
         if not isinstance(flow, FlowModel):
@@ -398,6 +407,9 @@ class CoupledModel:
         if well_rate is not None and flow.well.pressure_controlled:
             raise InputError("the flow's well is pressure controlled",
                              key="coupling.well_rate")
+        if dilation_angle is not None and not (0.0 < float(dilation_angle) < 0.5 * math.pi):
+            raise InputError(f"value {dilation_angle!r} rad is out of range",
+                             key="coupling.dilation_angle", expected="(0, pi/2) rad or None")
         if failure_dilatation not in ("pore", "continuous"):
             raise InputError(f"unknown value {failure_dilatation!r}",
                              key="coupling.failure_dilatation",
@@ -409,6 +421,7 @@ class CoupledModel:
         self.height = float(flow.height)
         self.biot = float(mechanics.rock.biot)
         self.residual_aperture = float(residual_aperture)
+        self.dilation_angle = None if dilation_angle is None else float(dilation_angle)
         self.well_compliance = float(well_compliance)
         self.well_rate = well_rate
         self.hole_volume_change = bool(hole_volume_change)
@@ -578,15 +591,22 @@ class CoupledModel:
                             failure_volume=structure.failure_volume)
 
     # ---------------------------------------------------------------- fracture flow
-    def crack_permeability(self, cluster_state: np.ndarray, gap: np.ndarray
+    def crack_permeability(self, cluster_state: np.ndarray, gap: np.ndarray,
+                           slip: np.ndarray | None = None
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Cell permeability with the failed clusters' crack conductivity.
+
+        The hydraulic aperture of a failed cluster is ``w_res + w_n`` and, with a
+        :attr:`dilation_angle` and ``slip`` given, ``+ tan(psi) max_j |u_s,j|``
+        (:func:`~xlotkit.sim.flow.fracture.hydraulic_aperture`).
 
         Parameters
         ----------
         cluster_state : ndarray of int (m,)
         gap : ndarray (m, 3) [m]
             Contact openings (0 for closed contacts and intact clusters).
+        slip : ndarray (m, 3) [m], optional
+            Committed contact slip; used only with a :attr:`dilation_angle`.
 
         Returns
         -------
@@ -602,7 +622,11 @@ class CoupledModel:
         failed = np.asarray(cluster_state) != INTACT
         km = self.flow.permeability
         wn, act = crack_opening(np.where(failed[:, None], gap, 0.0))
-        wh = self.residual_aperture + wn
+        us = None
+        if self.dilation_angle is not None and slip is not None:
+            us = np.where(failed, np.max(np.abs(np.asarray(slip, dtype=float)), axis=1), 0.0)
+        wh = hydraulic_aperture(wn, self.residual_aperture, us,
+                                None if us is None else self.dilation_angle)
         k = np.where(failed, crack_permeability(wh, km, self.length_scale), km)
         dk = np.where(failed & (wn > 0), crack_permeability_derivative(wh, self.length_scale),
                       0.0)
@@ -685,7 +709,7 @@ class CoupledModel:
         dV_du = (-self.height * G.T).tocsr()
         # fracture permeability
         gap = np.where(failed[:, None], np.maximum(Un - np.asarray(st.ref_normal), 0.0), 0.0)
-        k, dk_dw, wn, act = self.crack_permeability(cs, gap)
+        k, dk_dw, wn, act = self.crack_permeability(cs, gap, st.slip)
         kw: dict = dict(permeability=k, well_storage=self.well_storage)
         if undrained:
             kw.update(permeability=np.zeros(m), well_rate=0.0)

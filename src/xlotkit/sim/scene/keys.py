@@ -169,6 +169,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "fracture_friction_angle": _k("angle", "deg", 0.0, 89.0,
                                       doc="friction angle of failed fracture-band clusters "
                                           "(used when effects.fracture_plane)"),
+        "dilation_angle": _k("angle", "deg", 0.0, 45.0, lo_open=True, optional=True,
+                             doc="shear-dilation angle psi of failed clusters' cracks: the "
+                                 "hydraulic aperture gains tan(psi) |u_s| (needs, and is "
+                                 "needed by, effects.shear_dilation)"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,
                    doc="seed of the heterogeneity draw (default: the master seed)"),
     },
@@ -234,7 +238,8 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "poroelastic": _k("bool", doc="poroelastic coupling of matrix flow and rock (2D)"),
         "heterogeneity": _k("bool", doc="seeded strength heterogeneity (2D)"),
         "strength_scaling": _k("bool", doc="triangle-size strength scaling (2D)"),
-        "shear_dilation": _k("bool", doc="shear dilation of fracture apertures (2D)"),
+        "shear_dilation": _k("bool", doc="shear dilation of fracture apertures by "
+                                              "rock.dilation_angle (2D)"),
         "fracture_plane": _k("bool", doc="failed clusters of the fracture band open and "
                                          "close as a smooth joint along sigma_H, with "
                                          "rock.fracture_friction_angle (2D; needs "

@@ -94,6 +94,15 @@ class Scene:
             raise InputError("effects.fracture_plane needs a fracture band",
                              key="effects.fracture_plane",
                              expected="mesh.fracture_band = true, or fracture_plane = false")
+        if self.effects.shear_dilation and self.rock.dilation_angle is None:
+            raise InputError("effects.shear_dilation needs a dilation angle",
+                             key="rock.dilation_angle",
+                             expected="an angle in (0, 45] deg, e.g. dilation_angle = 5.0")
+        if self.rock.dilation_angle is not None and not self.effects.shear_dilation:
+            raise InputError(f"rock.dilation_angle = {self.rock.dilation_angle!r} deg is "
+                             "only used with shear dilation, which is off",
+                             key="rock.dilation_angle",
+                             expected="effects.shear_dilation = true, or no dilation_angle")
         if self.model == "lumped" and self.two_d_reasons:
             key = self.two_d_reasons[0]
             raise InputError(f"model = 'lumped' cannot simulate {key}", key=key,

@@ -143,6 +143,7 @@ class Rock:
     strength_scaling_reference_area: float = 1e-4
     toughness: float | None = None
     fracture_friction_angle: float = 0.0
+    dilation_angle: float | None = None
     seed: int | None = None
 
     def __post_init__(self) -> None:
