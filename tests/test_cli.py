@@ -85,7 +85,7 @@ def test_inspect_json_schema(runner, tmp_path):
     assert c["peak_pressure_bar"] == pytest.approx(120, abs=1)
     for ph in c["phases"]:
         assert set(ph) == {"kind", "start_s", "end_s", "duration_s", "pumped_m3",
-                           "returned_m3", "peak_pressure_bar"}
+                           "returned_m3", "peak_pressure_bar", "evidence"}
     assert [ph["kind"] for ph in c["phases"]] == ["pump", "shut_in", "bleed"]
 
 

@@ -132,6 +132,7 @@ def _as_json(paths, record, seg) -> dict:
             "pumped_m3": round(ph.pumped_m3, 4),
             "returned_m3": round(ph.returned_m3, 4),
             "peak_pressure_bar": round(_bar(ph.peak_pressure), 2),
+            "evidence": [e.value for e in ph.evidence],
         }
 
     out = {
@@ -193,7 +194,9 @@ def _as_table(paths, record, seg) -> str:
                 f"     {'- ' + ph.kind:<12} {_fmt_clock(record, ph.t_start):>8} "
                 f"{_fmt_elapsed(ph.t_start):>8} {_fmt_clock(record, ph.t_end):>8} "
                 f"{_fmt_elapsed(ph.duration):>8} {_bar(ph.peak_pressure):>8.1f} "
-                f"{ph.pumped_m3:>9.3f} {ph.returned_m3:>9.3f}")
+                f"{ph.pumped_m3:>9.3f} {ph.returned_m3:>9.3f}"
+                + (f"  evidence: {', '.join(e.value for e in ph.evidence)}"
+                   if ph.evidence else ""))
         lines.append(f"     reason: {c.reason}")
     return "\n".join(lines)
 

@@ -5,6 +5,7 @@ Data types are fixed here so that the picks, reports and CLI can rely on them.
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Literal
@@ -14,10 +15,27 @@ import numpy as np
 from xlotkit.errors import InputError
 from xlotkit.record import Record
 
-__all__ = ["Cycle", "CycleKind", "Phase", "PhaseKind", "SegmentOptions", "Segmentation", "segment"]
+__all__ = ["ReleaseEvidence", "Cycle", "CycleKind", "Phase", "PhaseKind", "SegmentOptions", "Segmentation", "segment"]
 
 PhaseKind = Literal["pump", "shut_in", "flowback", "bleed", "idle"]
 CycleKind = Literal["line_test", "casing_test", "lot", "xlot", "other"]
+
+
+class ReleaseEvidence(enum.Enum):
+    """What shows that a fall of pressure is a bleed or flowback rather than leak-off.
+
+    ``RETURN_FLOW``: a return rate or return/pumped volume column shows fluid coming back.
+    ``REMARK``: an operator remark near the fall mentions a bleed, flowback or opened valve.
+    ``UNEXPLAINED_DECLINE``: the fall accelerates well past the decline the same shut-in
+    showed before it (leak-off only slows down), or releases the pressure to base much faster
+    than the record's own pump-off decline.
+    ``PRESSURE_ONLY``: no rate is logged at all; a fast release to base is the only sign.
+    """
+
+    RETURN_FLOW = "return_flow"
+    REMARK = "remark"
+    UNEXPLAINED_DECLINE = "unexplained_decline"
+    PRESSURE_ONLY = "pressure_only"
 
 
 @dataclass(frozen=True)
@@ -40,6 +58,9 @@ class Phase:
         Highest pressure in the phase [Pa], on the record's reference.
     mean_rate : float
         Mean pump rate (negative for returns) [m^3/s].
+    evidence : tuple of ReleaseEvidence
+        For ``bleed`` and ``flowback`` phases: what the release was declared from (empty for
+        other kinds).
     """
 
     kind: PhaseKind
@@ -51,6 +72,7 @@ class Phase:
     returned_m3: float = 0.0
     peak_pressure: float = 0.0
     mean_rate: float = 0.0
+    evidence: tuple[ReleaseEvidence, ...] = ()
 
     @property
     def duration(self) -> float:
@@ -492,6 +514,56 @@ def _fall_runs(t, ps, dpdt, allowed, base, rate, fraction, gap_s, min_s) -> list
     return out
 
 
+_EVIDENCE: tuple[ReleaseEvidence | None, ...] = (None, *ReleaseEvidence)
+_RELEASE_WORDS = ("bleed", "bled", "flow back", "flowback", "flow-back", "open", "release",
+                  "vent", "choke")
+# leak-off decline only slows down with time; a fall this many times faster than the decline
+# just before it needs the well to have been opened
+_ACCELERATION = 3.0
+# leak-off after a pump phase takes a time comparable to the pumping; a release to near base
+# in less than this fraction of the pump time is not leak-off
+_FAST_RELEASE = 0.1
+
+
+def _release_evidence(record, t, ps, dpdt, pump, base, a, b, opt) -> ReleaseEvidence | None:
+    """Evidence that the fall over samples ``[a, b)`` is a release (see ReleaseEvidence)."""
+    t0, t1 = float(t[a]) - 60.0, float(t[b - 1])
+    for e in record.events:
+        if t0 <= e.t <= t1 and any(w in e.text.lower() for w in _RELEASE_WORDS):
+            return ReleaseEvidence.REMARK
+    before = np.flatnonzero(pump[:a])
+    pe = int(before[-1]) + 1 if before.size else 0
+    fall = float(np.max(-dpdt[a:b]))
+    excess = float(ps[a] - base)
+    if excess <= 0:
+        return None
+    settle = _window(t, 2.0 * opt.slope_s)
+    if a - pe > 2 * settle:
+        # the most recent decline of the shut-in before the fall (last third of it)
+        ref = float(np.median(-dpdt[a - max(settle, (a - pe) // 3): a - settle // 2]))
+        # floor: a flat shut-in would make any fall look infinitely faster
+        ref = max(ref, 1e-4 * excess / max(opt.slope_s, 1e-9))
+        if fall >= _ACCELERATION * ref:
+            return ReleaseEvidence.UNEXPLAINED_DECLINE
+        return None
+    # the fall starts at pump stop: compare its speed with the pumping time
+    if before.size:
+        runs = [r for r in _runs(pump[:a]) if r[1] == pe]
+        tp = _span(t, runs[0][0], runs[0][1]) if runs else 0.0
+        near_base = ps[b - 1] - base <= 0.2 * excess
+        if tp > 0 and near_base and _span(t, a, b) < _FAST_RELEASE * tp:
+            return ReleaseEvidence.UNEXPLAINED_DECLINE
+    return None
+
+
+def _with_evidence(ph: Phase, evidence: np.ndarray) -> Phase:
+    """``ph`` with the release evidence found on its samples (bleed/flowback only)."""
+    if ph.kind not in ("bleed", "flowback"):
+        return replace(ph, evidence=())
+    codes = sorted({int(c) for c in np.unique(evidence[ph.i0:ph.i1]) if c})
+    return replace(ph, evidence=tuple(_EVIDENCE[c] for c in codes))
+
+
 # ====================================================================== segment
 _CODES = {"idle": 0, "shut_in": 1, "pump": 2, "flowback": 3, "bleed": 4}
 _KINDS = {v: k for k, v in _CODES.items()}
@@ -630,6 +702,18 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
         if not fast and np.mean(returns[a:b]) >= 0.5:
             bleed[a:b] = False
     returns &= ~bleed
+    # a fast fall with a metered zero rate is a shut-in (leak-off) unless something shows
+    # the well was opened: a remark or a decline the shut-in's own leak-off cannot explain
+    evidence = np.zeros(n, np.int8)  # index into _EVIDENCE, 0 = none
+    for a, b in _runs(bleed):
+        ev = _release_evidence(record, t, ps, dpdt, pump, base, a, b, opt)
+        if not ev and not used_rate:
+            ev = ReleaseEvidence.PRESSURE_ONLY
+        if ev is None:
+            bleed[a:b] = False
+            continue
+        evidence[a:b] = _EVIDENCE.index(ev)
+    evidence[returns] = _EVIDENCE.index(ReleaseEvidence.RETURN_FLOW)
 
     flowback = returns
     if not have_returns and not used_rate:
@@ -637,6 +721,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
         for a, b in _fall_runs(t, ps, dpdt, free & ~bleed, base, opt.flowback_rate, 0.7,
                                30.0, 60.0):
             flowback[a:b] = True
+            evidence[a:b] = _EVIDENCE.index(ReleaseEvidence.PRESSURE_ONLY)
 
     # ---------------------------------------------------------------- labels
     lab = np.where(ps - base >= opt.idle_band, _CODES["shut_in"], _CODES["idle"])
@@ -668,6 +753,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     pv_volume = _cum_rate(t, rate) if used_rate else cum_in
 
     phases = [_make_phase(record, kind, a, b, cum_in, cum_out) for kind, a, b in runs]
+    phases = [_with_evidence(ph, evidence) for ph in phases]
 
     # ---------------------------------------------------------------- cycles
     start_samples: set[int] = set()
@@ -693,7 +779,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
             real = gain >= 0.5 * (peak - base)
         if gain >= opt.min_cycle_pressure and (not elevated or real):
             start_samples.add(ph.i0)
-    phases = _merge_same(phases, record, cum_in, cum_out)
+    phases = [_with_evidence(ph, evidence) for ph in _merge_same(phases, record, cum_in, cum_out)]
     cycles = _group_cycles(record, phases, ps, base, pv_volume, start_samples, opt)
     notes.append(f"{len(cycles)} cycle(s): "
                  + ", ".join(c.kind for c in cycles) if cycles else "no cycles found")
