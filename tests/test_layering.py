@@ -156,3 +156,34 @@ def test_the_checker_sees_every_import_form(tmp_path, monkeypatch, source, forbi
     monkeypatch.setattr(me, "SRC", tmp_path)
     monkeypatch.setattr(me, "PKG", tmp_path / "xlotkit")
     assert len(_violations(("xlotkit.sim.scene",), forbidden)) == expect
+
+
+def test_pick_core_loads_methods_by_explicit_import_only():
+    """picks/core.py names its methods in code: no importlib, no getattr/hasattr by name,
+    no signature probing (house style: no plugin loading by name)."""
+    path = PKG / "interpret" / "picks" / "core.py"
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    bad = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            bad += [(node.lineno, a.name) for a in node.names
+                    if a.name.split(".")[0] in ("importlib", "inspect")]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            if (node.module or "").split(".")[0] in ("importlib", "inspect"):
+                bad.append((node.lineno, node.module))
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+              and node.func.id in ("getattr", "hasattr", "__import__")):
+            bad.append((node.lineno, node.func.id))
+    assert not bad, f"{path.name}: loading by name at {bad}"
+
+
+def test_pick_core_registry_covers_every_method():
+    """Every shut-in method of shutin.py and every flowback method has one entry."""
+    from xlotkit.interpret.picks import core, shutin
+    from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS
+
+    fcp = [e.method for e in core.METHODS if e.pick == "FCP"]
+    assert fcp == list(shutin.SHUTIN_METHODS) + list(FLOWBACK_METHODS)
+    assert [e.phase for e in core.METHODS if e.pick == "FCP"] == (
+        ["shut_in"] * len(shutin.SHUTIN_METHODS) + ["flowback"] * len(FLOWBACK_METHODS))
+    assert sorted(core.PICK_NAMES) == sorted(("LOP", "FBP", "Pr", "FPP", "ISIP"))

@@ -11,7 +11,8 @@ from xlotkit import InputError
 from xlotkit.cli import main
 from xlotkit.interpret.io import read_log
 from xlotkit.logfile import write_log
-from xlotkit.pipeline import StressInputs, interpret_record, new_output_dir
+from xlotkit.interpret.estimate import StressInputs
+from xlotkit.pipeline import interpret_record, new_output_dir
 from xlotkit.sim.lumped import simulate_lumped, standard_lumped_scene
 
 FIELD = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "field" / "AMS-01"

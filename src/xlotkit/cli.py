@@ -340,7 +340,7 @@ def _pick_options(windows: tuple[str, ...], methods: tuple[str, ...]):
 
 
 def _stress_inputs(tvd, gauge_tvd, mud_density, pore_gradient, sv_gradient, mu):
-    from xlotkit.pipeline import GRAVITY, StressInputs
+    from xlotkit.interpret.estimate import GRAVITY, StressInputs
 
     p0 = sv = None
     if pore_gradient is not None or sv_gradient is not None:

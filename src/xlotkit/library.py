@@ -364,7 +364,7 @@ def _depth_offset(interp) -> float | None:
     hole (0 for a bottom-hole record; the fluid column for a surface gauge), read off its
     own sigma_h estimate: ``sigma_h - FCP`` of the cycle it took sigma_h from. None when
     there is no estimate."""
-    from xlotkit.pipeline import _gauge
+    from xlotkit.interpret.estimate import _gauge
 
     s = interp.stress
     if not s.available or s.sigma_h is None or s.source_cycle is None:
@@ -435,7 +435,8 @@ def evaluate(entry: Entry) -> Evaluation:
     from xlotkit.interpret.io import read_log
     from xlotkit.interpret.picks.core import SHUTIN_METHOD_NAMES
     from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS
-    from xlotkit.pipeline import StressInputs, interpret_record
+    from xlotkit.interpret.estimate import StressInputs
+    from xlotkit.pipeline import interpret_record
 
     truth = entry.truth()
     if "realised_bar" not in truth:

@@ -11,7 +11,7 @@ import pytest
 
 from xlotkit.atomic import atomic_write, atomic_write_text
 from xlotkit.errors import InputError
-from xlotkit.interpret.picks.core import _run
+from xlotkit.interpret.picks.core import MethodEntry, _run
 from xlotkit.interpret.picks.types import Pick
 
 
@@ -26,8 +26,13 @@ def _noisy_pick(*_a, **_k):
     return Pick("FCP", "test", 1.0e7, quality="good")
 
 
+def _call(fn):
+    entry = MethodEntry("FCP", "test", "shut_in", fn)
+    return _run(entry, None, None, window=None, tangents=None, isip=None)
+
+
 def test_numpy_and_lapack_warnings_become_a_note_not_terminal_output(capfd):
-    p = _run("FCP", "test", _noisy_pick, "")
+    p = _call(_noisy_pick)
     out, err = capfd.readouterr()
     assert "DLASCL" not in out + err and "RankWarning" not in out + err
     assert "numerical warnings" in p.message and "RankWarning" in p.message
@@ -35,8 +40,17 @@ def test_numpy_and_lapack_warnings_become_a_note_not_terminal_output(capfd):
 
 
 def test_non_finite_result_is_not_a_value():
-    p = _run("FCP", "test", lambda: Pick("FCP", "test", float("nan")), "")
+    p = _call(lambda *_a, **_k: Pick("FCP", "test", float("nan")))
     assert not p.found and "finite" in p.message
+
+
+def test_a_method_that_raises_is_not_found_with_the_errors_first_line():
+    def broken(*_a, **_k):
+        raise ValueError("window holds 3 samples\nsecond line of detail")
+
+    p = _call(broken)
+    assert not p.found and (p.name, p.method) == ("FCP", "test")
+    assert p.message == "test failed: ValueError: window holds 3 samples"
 
 
 def test_files_get_the_umask_and_errors_name_the_users_path(tmp_path):

@@ -17,9 +17,12 @@ What is picked where
   phase, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`) when it has a
   ``flowback`` phase.
 
-The pressurisation and shut-in picks live in their own modules, imported lazily: when one is
-missing or fails, its pick comes back "not found" with the reason, never with an invented
-value.
+Every method is an entry of :data:`METHODS` (:class:`MethodEntry`: pick name, method name,
+the phase it reads, and a callable of the one :class:`PickMethod` signature), built from
+explicit imports of :mod:`~xlotkit.interpret.picks.pressurisation`,
+:mod:`~xlotkit.interpret.picks.shutin` and :mod:`~xlotkit.interpret.picks.flowback`. A
+method that raises gives a "not found" pick whose message is the error's one line, never an
+invented value (:func:`_run` is the one place that catches).
 
 Consensus FCP
 -------------
@@ -71,15 +74,14 @@ contradiction).
 from __future__ import annotations
 
 import dataclasses
-import importlib
-import inspect
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, Protocol
 
 import numpy as np
 
-from xlotkit.interpret.phases import Cycle, Segmentation
+from xlotkit.interpret.phases import Cycle, Segmentation, segment
+from xlotkit.interpret.picks import pressurisation, shutin
 from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
 from xlotkit.interpret.picks.models import fit_line
 from xlotkit.interpret.picks.types import Pick
@@ -88,10 +90,13 @@ from xlotkit.record import Record
 
 __all__ = [
     "FCP_METHODS",
+    "METHODS",
     "PICK_NAMES",
     "SHUTIN_METHOD_NAMES",
     "Consistency",
     "CyclePicks",
+    "MethodEntry",
+    "PickMethod",
     "PickOptions",
     "RecordPicks",
     "consensus_fcp",
@@ -100,19 +105,137 @@ __all__ = [
     "pick_record",
 ]
 
-#: Shut-in closure methods (names fixed by :mod:`xlotkit.interpret.picks.shutin`).
-SHUTIN_METHOD_NAMES = ("tangent", "sqrt_t", "g_function", "bilinear", "compliance")
+#: Shut-in closure methods (the keys of :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS`).
+SHUTIN_METHOD_NAMES = tuple(shutin.SHUTIN_METHODS)
 #: Every FCP method, shut-in then flowback.
 FCP_METHODS = SHUTIN_METHOD_NAMES + FLOWBACK_METHODS
-#: Non-closure picks, with the function of :mod:`xlotkit.interpret.picks.pressurisation`.
-PICK_NAMES = {"LOP": "pick_lop", "FBP": "pick_fbp", "Pr": "pick_reopening",
-              "FPP": "pick_fpp", "ISIP": "pick_isip"}
 #: Methods that accept fixed tangents (two time windows).
 TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
 #: Cycle kinds that get pressure picks.
 TEST_KINDS = ("lot", "xlot")
 
 _Window = tuple[float, float]
+
+
+# --------------------------------------------------------------------------- methods
+class PickMethod(Protocol):
+    """The one call signature of a pick method in :data:`METHODS`.
+
+    Parameters
+    ----------
+    record : Record
+    cycle : Cycle
+    window : (float, float) or None
+        User time window [s], or None for the automatic one (only passed to methods whose
+        entry has ``takes_window``).
+    tangents : ((float, float), (float, float)) or None
+        User-fixed lines before and after the break [s] (only with ``takes_tangents``).
+    isip : Pick or None
+        The cycle's ISIP when found (used by the shut-in methods).
+
+    Returns
+    -------
+    Pick
+    """
+
+    def __call__(self, record: Record, cycle: Cycle, *, window: _Window | None,
+                 tangents: tuple[_Window, _Window] | None, isip: Pick | None) -> Pick: ...
+
+
+@dataclass(frozen=True)
+class MethodEntry:
+    """One pick method.
+
+    Attributes
+    ----------
+    pick : str
+        The pick it makes: ``"LOP"``, ``"FBP"``, ``"Pr"``, ``"FPP"``, ``"ISIP"`` or ``"FCP"``.
+    method : str
+        Its method name (``"auto"`` for the pressurisation picks, the FCP method otherwise).
+    phase : {"pump", "shut_in", "flowback"}
+        The phase kind it reads; an FCP method runs only when the cycle has that phase.
+    run : PickMethod
+    takes_window, takes_tangents : bool
+        Whether a user window / fixed tangents reach the method (else a note says they were
+        ignored).
+    """
+
+    pick: str
+    method: str
+    phase: Literal["pump", "shut_in", "flowback"]
+    run: PickMethod
+    takes_window: bool = True
+    takes_tangents: bool = False
+
+
+def _lop(record, cycle, *, window, tangents, isip):
+    return pressurisation.pick_lop(record, cycle, window=window)
+
+
+def _fbp(record, cycle, *, window, tangents, isip):
+    return pressurisation.pick_fbp(record, cycle)
+
+
+def _reopening(record, cycle, *, window, tangents, isip):
+    return pressurisation.pick_reopening(record, cycle, window=window)
+
+
+def _fpp(record, cycle, *, window, tangents, isip):
+    return pressurisation.pick_fpp(record, cycle, window=window)
+
+
+def _isip(record, cycle, *, window, tangents, isip):
+    return pressurisation.pick_isip(record, cycle, window=window)
+
+
+def _fcp_tangent(record, cycle, *, window, tangents, isip):
+    return shutin.pick_fcp_tangent(record, cycle, window=window, isip=isip, lines=tangents)
+
+
+def _fcp_sqrt_t(record, cycle, *, window, tangents, isip):
+    return shutin.pick_fcp_sqrt_t(record, cycle, window=window, isip=isip)
+
+
+def _fcp_g_function(record, cycle, *, window, tangents, isip):
+    return shutin.pick_fcp_g_function(record, cycle, window=window, isip=isip)
+
+
+def _fcp_bilinear(record, cycle, *, window, tangents, isip):
+    return shutin.pick_fcp_bilinear(record, cycle, window=window, isip=isip)
+
+
+def _fcp_compliance(record, cycle, *, window, tangents, isip):
+    return shutin.pick_fcp_compliance(record, cycle, window=window, isip=isip)
+
+
+def _flowback(fb_method: str) -> PickMethod:
+    # One method per call so that each can have its own window / tangents.
+    def run(record, cycle, *, window, tangents, isip):
+        picks = pick_fcp_flowback(record, cycle, window=window, tangents=tangents,
+                                  methods=(fb_method,))
+        return picks[FLOWBACK_METHODS.index(fb_method)]
+    return run
+
+
+#: Every pick method: the pressurisation picks, then the shut-in and flowback FCP methods.
+METHODS: tuple[MethodEntry, ...] = (
+    MethodEntry("LOP", "auto", "pump", _lop),
+    MethodEntry("FBP", "auto", "pump", _fbp, takes_window=False),
+    MethodEntry("Pr", "auto", "pump", _reopening),
+    MethodEntry("FPP", "auto", "pump", _fpp),
+    MethodEntry("ISIP", "auto", "shut_in", _isip),
+    MethodEntry("FCP", "tangent", "shut_in", _fcp_tangent, takes_tangents=True),
+    MethodEntry("FCP", "sqrt_t", "shut_in", _fcp_sqrt_t),
+    MethodEntry("FCP", "g_function", "shut_in", _fcp_g_function),
+    MethodEntry("FCP", "bilinear", "shut_in", _fcp_bilinear),
+    MethodEntry("FCP", "compliance", "shut_in", _fcp_compliance),
+    *(MethodEntry("FCP", m, "flowback", _flowback(m), takes_tangents=True)
+      for m in FLOWBACK_METHODS),
+)
+#: Non-closure picks (names of the pressurisation entries of :data:`METHODS`).
+PICK_NAMES = tuple(e.pick for e in METHODS if e.pick != "FCP")
+_BY_PICK = {e.pick: e for e in METHODS if e.pick != "FCP"}
+_BY_FCP = {e.method: e for e in METHODS if e.pick == "FCP"}
 
 
 # --------------------------------------------------------------------------- options
@@ -462,35 +585,20 @@ class CyclePicks:
         return {p.method: p for p in self.picks if p.name == "FCP"}
 
 
-# --------------------------------------------------------------------------- lazy imports
-def _load(module: str) -> tuple[Any, str]:
-    try:
-        return importlib.import_module(f"xlotkit.interpret.picks.{module}"), ""
-    except ImportError as exc:
-        return None, f"xlotkit.interpret.picks.{module} not available ({exc})"
-
-
-def _accepts(fn: Callable, name: str) -> bool:
-    try:
-        params = inspect.signature(fn).parameters
-    except (TypeError, ValueError):
-        return False
-    return name in params or any(p.kind is p.VAR_KEYWORD for p in params.values())
-
-
-def _run(name: str, method: str, fn: Callable | None, why: str, *args, **kw) -> Pick:
-    """Call a pick function; a missing or failing one becomes a not-found pick."""
-    if fn is None:
-        return Pick.not_found(name, method, why)
+# --------------------------------------------------------------------------- running
+def _run(entry: MethodEntry, record: Record, cycle: Cycle, *, window: _Window | None,
+         tangents: tuple[_Window, _Window] | None, isip: Pick | None) -> Pick:
+    """Call one method; the one place a failing method becomes a not-found pick."""
+    name, method = entry.pick, entry.method
     # numpy/LAPACK warnings (RankWarning, DLASCL) never reach the terminal: they become a
     # note on this pick, and a "good" pick made despite them is only "fair"
     with captured() as said:
         try:
-            out = fn(*args, **kw)
+            out = entry.run(record, cycle, window=window, tangents=tangents, isip=isip)
         except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
-            out = Pick.not_found(name, method, f"{method} failed: {type(exc).__name__}: {exc}")
-    if not isinstance(out, Pick):
-        return Pick.not_found(name, method, f"{method} returned {type(out).__name__}, not Pick")
+            line = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+            return Pick.not_found(name, method,
+                                  f"{method} failed: {type(exc).__name__}: {line}".rstrip(": "))
     if out.found and not np.isfinite(out.value):
         # missing samples (NaN pressure where the file recorded none) reached the fit
         return Pick.not_found(name, method, f"{method} gave no finite value (missing samples "
@@ -571,13 +679,6 @@ def _stiffness(record: Record, cycle: Cycle, picks: Sequence[Pick]
 
 
 # --------------------------------------------------------------------------- pick_cycle
-def _flowback_one(record: Record, cycle: Cycle, *, fb_method: str, window, tangents) -> Pick:
-    # One method per call so that each can have its own window / tangents.
-    picks = pick_fcp_flowback(record, cycle, window=window, tangents=tangents,
-                              methods=(fb_method,))
-    return picks[FLOWBACK_METHODS.index(fb_method)]
-
-
 def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = None,
                options: PickOptions | None = None) -> CyclePicks:
     """Run every applicable pick on one cycle.
@@ -603,19 +704,14 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
         return CyclePicks(cycle, (), ref, s, se, src,
                           notes=(f"{cycle.kind} cycle: only the stiffness is picked",))
     ci = cycle.index
-    pres, why_p = _load("pressurisation")
 
     def press(name: str) -> Pick:
-        fn = getattr(pres, PICK_NAMES[name], None) if pres is not None else None
-        why = why_p or f"pressurisation.{PICK_NAMES[name]} not available"
-        kw = {}
+        entry = _BY_PICK[name]
         win = options.window(ci, name)
-        if win is not None:
-            if fn is not None and not _accepts(fn, "window"):
-                notes.append(f"{name}: the pick takes no window, override ignored")
-            else:
-                kw["window"] = win
-        return _run(name, "auto", fn, why, record, cycle, **kw)
+        if win is not None and not entry.takes_window:
+            notes.append(f"{name}: the pick takes no window, override ignored")
+            win = None
+        return _run(entry, record, cycle, window=win, tangents=None, isip=None)
 
     picks: list[Pick] = []
     first = previous is None
@@ -631,35 +727,20 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
     picks.append(isip)
 
     wanted = set(options.methods)
-    if cycle.phase("shut_in") is not None:
-        shut, why_s = _load("shutin")
-        table = getattr(shut, "SHUTIN_METHODS", None) if shut is not None else None
-        if shut is not None and table is None:
-            why_s = "xlotkit.interpret.picks.shutin has no SHUTIN_METHODS"
-        for m in SHUTIN_METHOD_NAMES:
-            if m not in wanted:
-                continue
-            fn = table.get(m) if table is not None else None
-            kw: dict[str, Any] = {"window": options.window(ci, m),
-                                  "isip": isip if isip.found else None}
-            tan = options.tangent(ci, m)
-            if tan is not None and fn is not None:
-                if _accepts(fn, "tangents"):
-                    kw["tangents"] = tan
-                else:
-                    notes.append(f"{m}: fixed tangents not supported by the method, ignored")
-            picks.append(_run("FCP", m, fn, why_s or f"shut-in method {m!r} not available",
-                              record, cycle, **kw))
-    elif any(m in wanted for m in SHUTIN_METHOD_NAMES):
-        notes.append("no shut-in phase: shut-in closure methods not run")
-    if cycle.phase("flowback") is not None:
-        for m in FLOWBACK_METHODS:
-            if m not in wanted:
-                continue
-            picks.append(_run("FCP", m, _flowback_one, "", record, cycle, fb_method=m,
-                              window=options.window(ci, m), tangents=options.tangent(ci, m)))
-    elif any(m in wanted for m in FLOWBACK_METHODS):
-        notes.append("no flowback phase: flowback closure methods not run")
+    for phase, what in (("shut_in", "shut-in"), ("flowback", "flowback")):
+        entries = [e for e in METHODS if e.pick == "FCP" and e.phase == phase
+                   and e.method in wanted]
+        if cycle.phase(phase) is None:
+            if entries:
+                notes.append(f"no {what} phase: {what} closure methods not run")
+            continue
+        for e in entries:
+            tan = options.tangent(ci, e.method)
+            if tan is not None and not e.takes_tangents:
+                notes.append(f"{e.method}: fixed tangents not supported by the method, ignored")
+                tan = None
+            picks.append(_run(e, record, cycle, window=options.window(ci, e.method),
+                              tangents=tan, isip=isip if isip.found else None))
     fixed = {m for m in FCP_METHODS
              if options.window(ci, m) is not None or options.tangent(ci, m) is not None}
     picks, why = reconcile_closures(picks, cycle, fixed=fixed)
@@ -815,12 +896,6 @@ def pick_record(record: Record, segmentation: Segmentation | None = None, *,
     """
     options = options or PickOptions()
     if segmentation is None:
-        from xlotkit.interpret import phases
-
-        segment = getattr(phases, "segment", None)
-        if segment is None:
-            raise RuntimeError("xlotkit.interpret.phases.segment is not available; pass a "
-                               "Segmentation")
         segmentation = segment(record)
     out: list[CyclePicks] = []
     previous: CyclePicks | None = None
