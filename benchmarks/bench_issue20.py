@@ -27,28 +27,11 @@ SCENE = HERE / "scene_2d_standard_issue20.toml"
 def _run(src: Path, out: Path) -> tuple[float, dict]:
     env = dict(os.environ, PYTHONPATH=str(src))
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "xlotkit.cli", "simulate", str(SCENE),
+    subprocess.run([sys.executable, "-c", "import sys; from xlotkit.cli import main; sys.exit(main())",
+                    "simulate", str(SCENE),
                     "--out", str(out)], env=env, check=True)
     wall = time.perf_counter() - t0
     return wall, json.loads((out / "summary.json").read_text())
-
-
-def _find(d: object, keys: tuple[str, ...]) -> float | None:
-    """First numeric value under any of ``keys`` anywhere in the nested summary."""
-    if isinstance(d, dict):
-        for k, v in d.items():
-            if k in keys and isinstance(v, (int, float)):
-                return float(v)
-        for v in d.values():
-            r = _find(v, keys)
-            if r is not None:
-                return r
-    elif isinstance(d, list):
-        for v in d:
-            r = _find(v, keys)
-            if r is not None:
-                return r
-    return None
 
 
 def main() -> None:
@@ -59,12 +42,12 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tb, sb = _run(a.base, Path(tmp) / "base")
         tn, sn = _run(a.new, Path(tmp) / "new")
-    print("| run | wall time (s) | sigma_h realised (Pa) | FBP (Pa) |")
+    print("| run | wall time (s) | sigma_h realised (bar) | FBP (bar) |")
     print("| --- | --- | --- | --- |")
     rows = []
     for name, t, s in (("base", tb, sb), ("new", tn, sn)):
-        sh = _find(s, ("sigma_h_realised", "sigma_h", "shmin"))
-        fbp = _find(s, ("fbp", "FBP", "breakdown_pressure"))
+        sh = s.get("realised_bar", {}).get("sigma_h")
+        fbp = s.get("fbp_bar")
         rows.append((sh, fbp))
         print(f"| {name} | {t:.2f} | {sh} | {fbp} |")
     print(f"\nspeed-up base/new: {tb / tn:.2f}x")
