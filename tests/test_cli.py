@@ -89,6 +89,19 @@ def test_inspect_json_schema(runner, tmp_path):
     assert [ph["kind"] for ph in c["phases"]] == ["pump", "shut_in", "bleed"]
 
 
+def test_inspect_reports_what_the_reader_dropped(runner):
+    # a single impossible cell is dropped and the user is told which line, in the table and
+    # in the JSON (the fixture's line 9 holds 1e12 bar)
+    log = Path(__file__).resolve().parent / "data" / "logs" / "impossible_cell.csv"
+    res = runner.invoke(main, ["inspect", str(log), "--json"])
+    assert res.exit_code == 0, res.output
+    notes = json.loads(res.output)["reading_notes"]
+    assert any(n.startswith("line 9:") and "dropped" in n for n in notes), notes
+    res = runner.invoke(main, ["inspect", str(log)])
+    assert res.exit_code == 0, res.output
+    assert "read: line 9:" in res.output
+
+
 def test_inspect_several_independent_logs_json(runner, tmp_path):
     a = _small_log(tmp_path / "a.txt")
     b = _small_log(tmp_path / "b.txt")

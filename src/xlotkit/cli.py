@@ -123,6 +123,8 @@ def _records(logs: list[str], read_kw: dict | None = None) -> list[tuple[list[st
 
 
 def _as_json(paths, record, seg) -> dict:
+    from xlotkit.interpret.io import reading_notes
+
     def phase(ph):
         return {
             "kind": ph.kind,
@@ -159,12 +161,15 @@ def _as_json(paths, record, seg) -> dict:
         }
         for c in seg.cycles
     ]
+    out["reading_notes"] = reading_notes(record)
     out["notes"] = list(seg.notes)
     return out
 
 
 def _as_table(paths, record, seg) -> str:
     from pathlib import Path
+
+    from xlotkit.interpret.io import reading_notes
 
     lines = [", ".join(Path(p).name for p in paths)]
     lines.append(f"  pressure reference: {record.reference.describe()}"
@@ -176,6 +181,7 @@ def _as_table(paths, record, seg) -> str:
         lines.append(f"  merged: downhole clock + {record.meta['clock_offset_s']:.1f} s"
                      + (f" (± {unc:.1f} s)" if unc is not None else "")
                      + " = surface clock")
+    lines += [f"  read: {n}" for n in reading_notes(record)]
     lines.append("  phases from " + ("the pump rate" if seg.used_rate else "pressure alone"))
     if not seg.cycles:
         lines.append("  no cycles found")

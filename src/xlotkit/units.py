@@ -164,8 +164,15 @@ def field_unit_kind(text: str) -> str | None:
     """
     s = re.sub(r"\((a|g|abs|gauge)\)\s*[\])]?$", "", text.strip().lower()).strip()
     s = s.strip("[]()").strip()
+    m = _SPACED_MARK.match(s)
+    if m:
+        s = m.group(1)
     s = re.sub(r"\b(absolute|abs|gauge|gage)\b", "", s).strip()
     return _FIELD_UNIT_KIND.get(s)
+
+
+# A pressure unit with its absolute/gauge mark as a separate letter ("psi g", "bar a").
+_SPACED_MARK = re.compile(r"^(psi|bar|kpa|mpa|atm|at|kgf/cm2|kg/cm2)\s+([ag])$", re.IGNORECASE)
 
 # Markers of absolute / gauge pressure written next to the unit.
 _ABS_RE = re.compile(r"\b(absolute|abs)\b|^(psia|bara|ata)$", re.IGNORECASE)
@@ -329,6 +336,9 @@ def _parse_unit(text: str, *, file: str | None = None, line: int | None = None,
         s = m.group(1).strip() + (" absolute" if m.group(2).lower() in ("a", "abs") else
                                   " gauge")
     s = s.strip("[]()").strip()
+    m = _SPACED_MARK.match(s)
+    if m:                      # "psi g", "bar a"
+        s = m.group(1) + (" absolute" if m.group(2).lower() == "a" else " gauge")
     absolute: bool | None = None
     if _ABS_RE.search(s):
         absolute = True

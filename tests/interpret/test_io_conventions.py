@@ -80,10 +80,26 @@ def test_name_space_unit_whitespace_columns_annulus(truth):
     assert r.reference.kind == "surface" and r.reference.absolute is False   # psig
 
 
+@pytest.mark.parametrize("name", ["single_space_titles.txt", "unquoted_comma_titles.csv"])
+def test_titles_split_at_the_separator_regrouped_at_their_units(truth, name):
+    tr = truth[name]
+    r = read_log(FIX / name)
+    _close(r.t, tr["t"])
+    _close(r.pressure, tr["pressure"])
+    if "rate" in tr:
+        _close(r.rate, tr["rate"])
+    assert r.reference.absolute is tr["absolute"]
+
+
 def test_no_units_refused_with_the_flag_then_supplied(truth):
     tr = truth["no_units.csv"]
+    # every unitless column the record uses is named at once, with the flags for all
     with pytest.raises(InputError) as exc:
-        read_log(FIX / "no_units.csv", units={"time": "s"})
+        read_log(FIX / "no_units.csv")
+    assert str(exc.value).endswith("no_units.csv:1: columns 'time', 'p', 'q' have no unit: "
+                                   "pass --unit time=s --unit pressure=psi --unit rate=bpm")
+    with pytest.raises(InputError) as exc:
+        read_log(FIX / "no_units.csv", units={"time": "s", "rate": "l/min"})
     assert str(exc.value).endswith("no_units.csv:1: column 'p' has no unit: pass --unit "
                                    "pressure=psi")
     r = read_log(FIX / "no_units.csv", units=["time=s", "pressure=bar", "rate=l/min"])
@@ -295,6 +311,15 @@ def test_minifrac_workbook_default_sheet_no_pressure_while_pumping(truth):
         read_log(FIX / "minifrac_workbook.xlsx", sheet="7")
 
 
+def test_workbook_date_times_across_midnight(truth):
+    tr = truth["workbook_midnight.xlsx"]
+    r = read_log(FIX / "workbook_midnight.xlsx")
+    _close(r.t, tr["t"])
+    _close(r.pressure, tr["pressure"])
+    _close(r.rate, tr["rate"])
+    assert r.start_time == tr["start_time"]
+
+
 def test_ods_sheet(truth):
     tr = truth["sheet.ods"]
     r = read_log(FIX / "sheet.ods")
@@ -329,3 +354,13 @@ def test_running_median_is_scipys_median_filter():
             x = np.round(rng.normal(0, 1, size) * 1e5) / 7
             np.testing.assert_array_equal(_median(x, n), median_filter(x, size=n,
                                                                        mode="nearest"))
+
+
+def test_impossible_time_named_as_written(tmp_path):
+    # the error quotes the cell as the file has it, never a numpy repr
+    f = tmp_path / "t.csv"
+    f.write_text("Time (s),Pressure (bar)\n0,100\n1,110\n2,120\n1e30,130\n")
+    with pytest.raises(InputError) as exc:
+        read_log(f)
+    msg = str(exc.value)
+    assert "t.csv:5:" in msg and "'1e+30'" in msg and "np." not in msg

@@ -12,6 +12,7 @@ JSON schema (``picks.json``)
       "sources": [str, ...],                # files the record was read from
       "reference": str,                     # where the pressure was measured
       "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
+      "reading_notes": [str, ...],          # what the reader decided about cells
       "consistency": {"fcp_mean_bar", "fcp_spread_bar", "fcp_relative_spread",
                       "t0_bar", "t0_low_bar", "t0_high_bar", "t0_level", "t0_message",
                       "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change"},
@@ -64,6 +65,7 @@ from typing import Any, Literal
 import numpy as np
 
 from xlotkit.atomic import atomic_write, fresh_sibling_dir
+from xlotkit.interpret.io import reading_notes
 from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
 from xlotkit.interpret.picks.types import Pick
 
@@ -204,6 +206,7 @@ def picks_to_dict(record_picks: RecordPicks, stress: Any = None,
         "sources": list(rec.sources),
         "reference": rec.reference.describe(),
         "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
+        "reading_notes": reading_notes(rec),
         "consistency": {
             "fcp_mean_bar": _bar(k.fcp_mean),
             "fcp_spread_bar": _bar(k.fcp_spread),

@@ -126,6 +126,25 @@ def name_space_unit() -> None:
                                     "absolute": False}
 
 
+def single_space_titles() -> None:
+    """Titles and units separated by the same single space as the columns
+    (``Time s Pressure psi g Rate l/min``), and an unquoted comma CSV whose titles carry
+    their unit after a comma (``Time, min,Pressure, bar a``): the titles are regrouped at
+    the units."""
+    k, p_bar, q = _base()
+    p_psi = np.round(p_bar * BAR / PSI, 1)
+    lines = ["Time s Pressure psi g Rate l/min"]
+    lines += [f"{a} {b:.1f} {c:.1f}" for a, b, c in zip(k * 10, p_psi, q)]
+    _write("single_space_titles.txt", "\n".join(lines) + "\n")
+    TRUTH["single_space_titles.txt"] = {"t": k * 10.0, "pressure": p_psi * PSI,
+                                        "rate": q / 1000 / MIN, "absolute": False}
+    lines = ["Time, min,Pressure, bar a"]
+    lines += [f"{a * 0.5:.1f},{b + 1.0:.3f}" for a, b in zip(k, p_bar)]
+    _write("unquoted_comma_titles.csv", "\n".join(lines) + "\n")
+    TRUTH["unquoted_comma_titles.csv"] = {"t": k * 30.0, "pressure": (p_bar + 1.0) * BAR,
+                                          "absolute": True}
+
+
 def units_row_and_no_units() -> None:
     """A units row under the header (kgf/cm2, m3/h) and a file with no units at all."""
     k, p_bar, q = _base()
@@ -363,6 +382,20 @@ def workbooks() -> None:
     df.to_excel(OUT / "sheet.ods", engine="odf", index=False, sheet_name="Data")
     TRUTH["sheet.ods"] = {"t": k * 30.0, "pressure": np.round(p_bar / 10, 4) * MPA,
                           "rate": q / 1000 / MIN}
+    # a log across midnight in date-time cells: the cell at exactly 00:00:00 comes out of
+    # the workbook reader as a bare date and must still read as that midnight
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.title = "Log"
+    ws.append(["Date/Time", "Pressure (bar)", "Rate (l/min)"])
+    t0 = datetime(2024, 3, 5, 23, 58, 0)
+    for i in k:
+        ws.append([t0 + timedelta(seconds=int(i) * 10), float(p_bar[i]), float(q[i])])
+    wb.properties.created = datetime(2024, 3, 5)
+    wb.properties.modified = datetime(2024, 3, 5)
+    wb.save(OUT / "workbook_midnight.xlsx")
+    TRUTH["workbook_midnight.xlsx"] = {"t": k * 10.0, "pressure": p_bar * BAR,
+                                       "rate": q / 1000 / MIN, "start_time": t0}
 
 
 def stimulation_logs() -> None:
@@ -397,7 +430,7 @@ def stimulation_logs() -> None:
 
 
 ALL = (dfit_save_file, quoted_comma_header, name_comma_unit_tab, name_space_unit,
-       units_row_and_no_units, synonyms_pair, non_english, clock_midnight, datetime_orders,
+       single_space_titles, units_row_and_no_units, synonyms_pair, non_english, clock_midnight, datetime_orders,
        thousands_tab, stimulation_logs, blanks_trailing, impossible_cell, remarks_column, workbooks)
 
 

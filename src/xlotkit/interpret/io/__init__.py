@@ -48,8 +48,24 @@ __all__ = [
     "read_log",
     "read_logs",
     "read_options",
+    "reading_notes",
     "write_log",
 ]
+
+def reading_notes(record: Record) -> list[str]:
+    """What the reader decided about a record's cells, for the user to see.
+
+    Cells dropped as impossible, zeros taken as not recorded, commas read as thousands
+    separators, columns not read: the reader's notes (``meta["notes"]``), and for a merged
+    surface + downhole record each side's, prefixed with the side.
+    """
+    notes = [str(n) for n in record.meta.get("notes", ())]
+    for side in ("surface", "downhole"):
+        sub = record.meta.get(side)
+        if isinstance(sub, Mapping):
+            notes += [f"{side} log: {n}" for n in sub.get("notes", ())]
+    return notes
+
 
 _KINDS = ("auto", "cementing_unit", "downhole_gauge", "csv", "workbook")
 _DATE_ORDERS = ("DMY", "MDY", "YMD")

@@ -232,6 +232,31 @@ def _unit_of(tab: Table, j: int, field: str, opts: ReadOptions) -> tuple[str, st
     return "", ""
 
 
+_UNIT_EXAMPLE = {"pressure": "psi", "surface_pressure": "psi", "rate": "bpm", "volume": "bbl",
+                 "return_rate": "bpm", "return_volume": "bbl", "density": "sg",
+                 "temperature": "degC", "time": "s"}
+
+
+def _all_units_given(tab: Table, fields: list[str], opts: ReadOptions, label: str) -> None:
+    """Refuse, in one error, every column the record uses that states no unit.
+
+    A file without units names all its unitless columns at once, so one rerun with the
+    ``--unit`` flags suffices.
+    """
+    missing = []
+    for j, f in enumerate(fields):
+        if f in ROLE_KIND or f == "time":
+            if not _unit_of(tab, j, f, opts)[0]:
+                missing.append((tab.names[j], f))
+    if not missing:
+        return
+    names = ", ".join(repr(n) for n, _ in missing)
+    flags = " ".join(f"--unit {r}={_UNIT_EXAMPLE[r]}" for _, r in missing)
+    raise InputError(f"column{'s' if len(missing) > 1 else ''} {names} "
+                     f"{'have' if len(missing) > 1 else 'has'} no unit: pass {flags}",
+                     file=label, line=tab.header_line)
+
+
 def _parse_kind(text: str, kind: str | None, label: str, line: int | None, name: str,
                 role: str | None) -> ParsedUnit | None:
     if text.strip().upper() == "SI":
@@ -635,6 +660,8 @@ def assemble(tab: Table, opts: ReadOptions, *, reference: PressureReference | No
                          "pressure=NAME", file=label, line=tab.header_line,
                          expected="a column named like 'Pressure'")
 
+    _all_units_given(tab, fields, opts, label)
+
     # ---- remark rows (time + free text in the first value column, the rest empty)
     remark = np.zeros(n_all, bool)
     remark_text = None
@@ -754,7 +781,8 @@ def assemble(tab: Table, opts: ReadOptions, *, reference: PressureReference | No
         bad, why = _impossible(t_all, "time", "time", None)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise InputError(f"column {key!r}: time {tab.data[jt].iloc[i]!r} {utext} is {why}"
+            cell = str(tab.data[jt].iloc[i]).strip()
+            raise InputError(f"column {key!r}: time {cell!r} {utext} is {why}"
                              f": pass --unit time=UNIT", file=label, line=int(lines_all[i]))
         time_kind = "time"
         if "start_time" in meta:
@@ -818,10 +846,8 @@ def assemble(tab: Table, opts: ReadOptions, *, reference: PressureReference | No
             if role is None:
                 pu = None                      # a mapped channel without a unit: as written
             else:
-                example = {"pressure": "psi", "surface_pressure": "psi", "rate": "bpm",
-                           "volume": "bbl", "return_rate": "bpm", "return_volume": "bbl",
-                           "density": "sg", "temperature": "degC", "time": "s"}[role]
-                raise InputError(f"column {name!r} has no unit: pass --unit {role}={example}",
+                raise InputError(f"column {name!r} has no unit: pass --unit "
+                                 f"{role}={_UNIT_EXAMPLE[role]}",
                                  file=label, line=tab.header_line)
         else:
             pu = _parse_kind(utext, ROLE_KIND.get(f), label, tab.header_line, name, role)

@@ -337,6 +337,33 @@ def sniff_rows(rows: Sequence[Sequence[str]], raws: Sequence[str], lines: Sequen
                   comments, trailer)
 
 
+def _group_titles(cells: Sequence[str], width: int) -> list[str] | None:
+    """Header cells regrouped into ``width`` titles, each a name followed by its unit.
+
+    A header whose separator also stands between a name and its unit gives more cells than
+    the data have values; every cell that is a unit closes the title it follows. None when
+    that does not give one title per value, or when a title would have no name.
+    """
+    groups: list[list[str]] = []
+    closed = True
+    for c in cells:
+        is_unit = bool(c) and (field_unit_kind(c) is not None or (
+            c.startswith(("(", "[")) and c.endswith((")", "]"))))
+        if is_unit and groups and not closed:
+            groups[-1].append(f"({c.strip('()[]')})")
+            closed = True
+        elif is_unit:
+            return None
+        elif closed:
+            groups.append([c])
+            closed = False
+        else:
+            groups[-1].append(c)
+    if len(groups) != width:
+        return None
+    return [" ".join(g) for g in groups]
+
+
 def _columns(rows, header, units, width, lines, label, a):
     """Titles and units per data field (header padding with empty cells dropped)."""
     if header is None:
@@ -352,10 +379,16 @@ def _columns(rows, header, units, width, lines, label, a):
             # a date and a clock time in two fields under one title ("Time")
             pos = [j for j, c in enumerate(h) if c] if len(kept) == width - 1 else \
                 list(range(len(h)))
+        elif (grouped := _group_titles(kept, width)
+              or _group_titles([w for c in kept for w in c.split()], width)) is not None:
+            # titles split at the separator between name and unit ("Time s Pressure bar"
+            # with single spaces, an unquoted "Time, min,Pressure, psi")
+            h, pos = grouped, list(range(width))
         else:
             raise InputError(f"the header has {len(kept)} titles but the data rows have "
                              f"{width} values", file=label, line=lines[header],
-                             expected="one title per column")
+                             expected="one title per column (separate the titles by a tab "
+                                      "or two spaces, or quote them)")
     else:
         pos = list(range(width))
     titles = [h[j] for j in pos]

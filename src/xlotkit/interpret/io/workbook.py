@@ -49,11 +49,19 @@ def _cell_text(v) -> str:
 
 
 def _column(values: list) -> pd.Series:
-    """One sheet column: floats when every cell is a number or blank, else text."""
+    """One sheet column: floats when every cell is a number or blank, else text.
+
+    A date-time cell that falls exactly on midnight comes out of the workbook reader as a
+    bare date; in a column that holds date-times it is that date at 00:00:00 (a log that
+    runs across midnight), not a date without a time.
+    """
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) or v in ("", None)
            for v in values):
         return pd.Series([np.nan if v in ("", None) else float(v) for v in values],
                          dtype=float)
+    if any(isinstance(v, dt.datetime) for v in values):
+        values = [dt.datetime.combine(v, dt.time()) if type(v) is dt.date else v
+                  for v in values]
     return pd.Series([_cell_text(v) for v in values], dtype=object)
 
 
