@@ -127,6 +127,49 @@ def test_a_rerun_interprets_nothing_again(archive, field_batch):
     assert same_table(res.table, again.table, ignore=())[0]
 
 
+@pytest.fixture(scope="module")
+def synthetic_log(tmp_path_factory):
+    """The lumped standard scene's synthetic log (two test cycles)."""
+    from xlotkit.sim.run import simulate
+    from xlotkit.sim.scene import load_scene
+
+    d = tmp_path_factory.mktemp("sim")
+    return simulate(load_scene(EXAMPLES / "scene_standard.toml"), d / "sim").paths["log"]
+
+
+def test_other_reader_flags_read_the_logs_again(synthetic_log, tmp_path):
+    from xlotkit.interpret.io import read_options
+
+    out = tmp_path / "b"
+    first = run_batch(BatchSpec((str(synthetic_log),)), out, executor=InProcess())
+    # the same files with a unit the user now states are another batch: never taken for
+    # the finished one (results read the old way kept), nor written over it
+    spec = BatchSpec((str(synthetic_log),),
+                     read_options=read_options(units={"pressure": "bar"}))
+    with pytest.raises(InputError) as e:
+        run_batch(spec, out, executor=InProcess())
+    assert e.value.key == "--out" and "another study" in str(e.value)
+    again = run_batch(spec, tmp_path / "c", executor=InProcess())
+    assert again.computed and not again.skipped
+    assert set(again.computed).isdisjoint(first.computed)
+
+
+def test_the_batch_on_a_dask_cluster_gives_the_in_process_table(synthetic_log, tmp_path):
+    from distributed import Client, LocalCluster
+
+    from xlotkit.study.executors import DaskCluster
+
+    ref = run_batch(BatchSpec((str(synthetic_log),)), tmp_path / "ref", executor=InProcess())
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        dask = run_batch(BatchSpec((str(synthetic_log),)), tmp_path / "dask",
+                         executor=DaskCluster(client=client))
+    assert dask.executor.startswith("the Dask cluster")
+    assert len(ref.table) == 2
+    same, why = same_table(ref.table, dask.table)
+    assert same, why
+
+
 def test_a_half_written_log_folder_is_done_again(tmp_path):
     """A log folder stopped while being written stays `.ID.partial` and is redone."""
     from xlotkit.sim.run import simulate

@@ -397,7 +397,10 @@ def _group_id(group: LogGroup, spec: BatchSpec) -> str:
     h = hashlib.sha256()
     for info in group.logs:
         h.update(f"{info.path}\0{info.sha256}\0".encode())
-    h.update(f"{spec.options!r}\0{spec.stress_inputs!r}\0{spec.max_offset_s!r}".encode())
+    # everything that changes a group's result: a rerun with other reader flags (--unit,
+    # --column, ...) reads the files again instead of keeping results read the old way
+    h.update(f"{spec.options!r}\0{spec.stress_inputs!r}\0{spec.max_offset_s!r}\0"
+             f"{spec.read_options!r}".encode())
     return h.hexdigest()[:16]
 
 

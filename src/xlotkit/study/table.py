@@ -107,8 +107,8 @@ class StudyFolder:
                 raise InputError(f"holds another study ({len(old)} cases, this one has "
                                  f"{len(ids)}; they differ from case {k} on); results are "
                                  f"never written over", file=root, key="--out",
-                                 expected="a new folder, or the same scene and options to "
-                                          "continue the study in it")
+                                 expected="a new folder, or the same scene (or logs) and "
+                                          "options to continue the study in it")
         else:
             if root.is_dir() and any(root.iterdir()):
                 raise InputError("holds other results (no study.json); results are never "
