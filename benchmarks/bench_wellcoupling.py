@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/bench_wellcoupling.py --print    # print only
 
 Runs ``monolithic``, ``wfd``, ``wfc`` and ``wfdmod`` on
-:func:`xlotkit.sim.wellcoupling.standard_well_coupling_scene` (thesis 2000 m well, two XLOT
+:func:`wellcoupling_study.standard_well_coupling_scene` (beside this script) (thesis 2000 m well, two XLOT
 cycles), plus a WFD tolerance sweep and a WFC gain / damping / step sweep on cycle 1, and
 writes the tables into docs/well-coupling.md between the ``BENCH`` markers.
 """
@@ -47,7 +47,7 @@ def phase_rms(r, pumping: bool) -> float:
 
 def main_tables() -> str:
     from xlotkit.sim.schedule import Pump, Schedule, ShutIn
-    from xlotkit.sim.wellcoupling import (
+    from wellcoupling_study import (
         STRATEGIES,
         CouplingOptions,
         run_well_coupling,

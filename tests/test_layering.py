@@ -35,8 +35,7 @@ CONFIGURATION = ("xlotkit.sim.scene", "xlotkit.sim.schedule")
 
 #: Engine modules: the simulators and their drivers (what configuration must not import).
 ENGINES = ("xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.mechanics",
-           "xlotkit.sim.flow", "xlotkit.sim.mesh", "xlotkit.sim.wellcoupling",
-           "xlotkit.sim.run")
+           "xlotkit.sim.flow", "xlotkit.sim.mesh", "xlotkit.sim.run")
 
 
 def _module_name(path: Path) -> str:
@@ -97,7 +96,9 @@ def test_the_tree_has_the_layers_it_is_checked_for():
         assert mod in names, f"{mod} is not a module any more: update the layering rules"
 
 
-ENTRY_POINTS = ("xlotkit.cli", "xlotkit.pipeline", "xlotkit.library")
+#: The rooms that may import both halves: the command line, the jobs, the synthetic library
+#: and the studies (sweeps simulate and pick; batches read and pick).
+ENTRY_POINTS = ("xlotkit.cli", "xlotkit.pipeline", "xlotkit.library", "xlotkit.study")
 
 
 def test_ground_floor_imports_nothing_from_sim_or_interpret():
@@ -112,6 +113,20 @@ def test_interpret_imports_nothing_from_sim():
     assert _violations(("xlotkit.interpret",), ("xlotkit.sim", *ENTRY_POINTS)) == []
 
 
+def test_only_entry_points_import_both_halves():
+    # the studies import the jobs; below them, neither half reaches the entry points
+    assert _violations(("xlotkit.sim", "xlotkit.interpret"), ENTRY_POINTS) == []
+    both = []
+    for path in _modules():
+        name = _module_name(path)
+        mods = [m for _, m in _imports(path)]
+        if (any(_within(m, ("xlotkit.sim",)) for m in mods)
+                and any(_within(m, ("xlotkit.interpret",)) for m in mods)
+                and not _within(name, ENTRY_POINTS)):
+            both.append(name)
+    assert both == []
+
+
 def test_configuration_imports_no_engine():
     assert _violations(CONFIGURATION, ENGINES) == []
 
@@ -124,13 +139,13 @@ def test_well_and_schedule_sit_below_configuration():
 def test_model_rooms_know_nothing_of_scenes_wells_or_engines():
     models = ("xlotkit.sim.mesh", "xlotkit.sim.mechanics", "xlotkit.sim.flow")
     above = ("xlotkit.sim.scene", "xlotkit.sim.schedule", "xlotkit.sim.well",
-             "xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.wellcoupling",
-             "xlotkit.sim.run", "xlotkit.sim.output")
+             "xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.run",
+             "xlotkit.sim.output")
     assert _violations(models, above) == []
 
 
 def test_engines_take_only_the_contract_from_run():
-    engines = ("xlotkit.sim.lumped", "xlotkit.sim.coupling", "xlotkit.sim.wellcoupling")
+    engines = ("xlotkit.sim.lumped", "xlotkit.sim.coupling")
     # a statement is reported by the first module it names: the contract module itself for
     # ``from xlotkit.sim.run.contract import X``, xlotkit.sim.run for anything else
     bad = [v for v in _violations(engines, ("xlotkit.sim.run",))

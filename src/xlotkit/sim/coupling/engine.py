@@ -204,10 +204,10 @@ class MDEMEngine:
             raise InputError(f"not a Scene: {scene!r}", key="scene")
         if scene.coupling != "monolithic":
             raise InputError(
-                f"coupling {scene.coupling!r} runs on the unit-segment well model "
-                "(xlotkit.sim.wellcoupling, benchmarks/bench_wellcoupling.py); the 2D "
-                "engine couples the well monolithically", key="coupling",
-                file=scene.source_file, expected="'monolithic' for the 2D engine")
+                f"coupling {scene.coupling!r} runs on the partitioned 2D engine "
+                "(xlotkit.sim.coupling.partitioned, chosen by xlotkit.sim.run.make_engine); "
+                "MDEMEngine couples the well monolithically", key="coupling",
+                file=scene.source_file, expected="'monolithic' for MDEMEngine")
         self.scene = scene
         self._plan = scene.schedule.expanded()
         self._callback = callback

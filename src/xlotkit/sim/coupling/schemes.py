@@ -19,7 +19,7 @@ or a prescribed pressure, or with the well attached as a :class:`WellLoad`) and
 
 Used by the 2D engine's partitioned coupling (:mod:`xlotkit.sim.coupling.partitioned`, on
 :class:`~xlotkit.sim.coupling.segment.CoupledSegment`) and by the unit-segment study
-(:mod:`xlotkit.sim.wellcoupling`, on its lumped stand-in). Their tuning is
+(the unit-segment study ``benchmarks/wellcoupling_study.py``, on its lumped stand-in). Their tuning is
 :class:`~xlotkit.sim.scene.CouplingOptions`. Everything is per unit height of the segment
 (m^3/s per m, m^3/Pa per m), SI, gauge pressures.
 """

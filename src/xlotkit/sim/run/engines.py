@@ -54,7 +54,8 @@ def require_engine(scene: Scene) -> EngineFactory:
     Raises
     ------
     EngineNotAvailable
-        When no engine is registered for it (today: ``mdem``).
+        When no engine is registered for it (both models have one by default; a
+        caller may have replaced the registry's entries).
     """
     model = scene.resolved_model
     factory = ENGINES.get(model)

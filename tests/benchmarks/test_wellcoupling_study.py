@@ -1,4 +1,5 @@
-"""Well–segment coupling strategies (xlotkit.sim.wellcoupling): segment, balance, convergence."""
+"""Well–segment coupling strategies (the unit-segment study, benchmarks/wellcoupling_study.py):
+segment, balance, convergence."""
 
 import math
 
@@ -8,7 +9,7 @@ import pytest
 from xlotkit import InputError
 from xlotkit.sim.schedule import Bleed, Flowback, Pump, Schedule, ShutIn
 from xlotkit.sim.well import well_compliance
-from xlotkit.sim.wellcoupling import (
+from wellcoupling_study import (
     STRATEGIES,
     CouplingOptions,
     LumpedUnitSegment,
@@ -86,7 +87,7 @@ def test_segment_fracture_closes_below_sigma_h_and_keeps_length():
     seg = LumpedUnitSegment(radius=0.15, compressibility=1 / 2.34e9, sigma_h=30e6,
                             breakdown_pressure=38e6, e_prime=6.4e9, toughness=3e6,
                             initial_flaw=0.15, pore_pressure=20e6)
-    from xlotkit.sim.wellcoupling import SegmentState
+    from wellcoupling_study import SegmentState
     L = 5.0
     vf = seg.fracture_volume(30.2e6, L)
     s = SegmentState(pressure=30.2e6, half_length=L, broken=True, fracture_volume=vf)
@@ -289,7 +290,7 @@ def test_bad_input():
 def test_a_failing_segment_step_is_reported_not_raised(pump_scene):
     """A segment step that does not converge (SegmentStepFailed, e.g. the 2D segment's
     Newton) ends the fixed-step run with status "failed" and what was computed so far."""
-    from xlotkit.sim.wellcoupling import SegmentStepFailed
+    from wellcoupling_study import SegmentStepFailed
 
     class Flaky:
         def __init__(self, seg, n_ok):
