@@ -50,7 +50,7 @@ def signatures() -> None:
         sel = g.G <= 1.3 * g.g_closure
         ax.plot(g.G[sel], g.g_dpdg[sel] / 1e5, color="tab:red", lw=1.2, label="G·dP/dG")
         gg = np.linspace(0, 1.3 * g.g_closure, 20)
-        ax.plot(gg, g.m * gg / 1e5, "k--", lw=0.9, label="line through the origin, m·G")
+        ax.plot(gg, g.m * gg / 1e5, "k--", lw=0.9, label="line through the origin, tangent at closure")
         ax.axvline(g.g_closure, color="tab:green", ls=":", label="closure (constructed)")
         ax.set_title(f"constructed: {pre.replace('_', ' ')}\ndiagnosed: {g.words}",
                      fontsize=9)

@@ -592,7 +592,7 @@ def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
     dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
                         min_points=5)
     g_c = float(np.interp(pick.t, sh.t[sl], G))
-    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c)
+    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c, sh.p[sl])
     return diagnosis, why
 
 
