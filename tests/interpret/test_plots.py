@@ -10,14 +10,13 @@ import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.text import Text
+from plot_geometry import collisions, segment_hits
 
 from xlotkit.interpret.calibration.records import ConstructedSpec, construct_record, dfit_record
 from xlotkit.interpret.diagnostics import diagnose_record
 from xlotkit.interpret.picks.core import pick_record
 from xlotkit.interpret.plots.labels import LabelPlacer
 from xlotkit.interpret.plots.picks import pick_figures
-
-from plot_geometry import collisions, segment_hits
 
 #: The AMS-01 field records, in the project's shared data next to the checkout (or a
 #: worktree of it).

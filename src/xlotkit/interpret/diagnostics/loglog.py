@@ -163,7 +163,7 @@ def loglog_diagnostics(record, cycle, *, isip=None, closure=None, L: float = 0.1
     s, _ = local_fit(np.log(dt), np.log(der), 2 * L, min_points=5)
     dtc = None
     t_s = float(c["t"][0] - c["dt"][0])
-    if closure is not None and getattr(closure, "found", False) and closure.t is not None:
-        if c["t"][0] <= closure.t <= c["t"][-1]:
-            dtc = float(closure.t - t_s)
+    if (closure is not None and getattr(closure, "found", False) and closure.t is not None
+            and c["t"][0] <= closure.t <= c["t"][-1]):
+        dtc = float(closure.t - t_s)
     return LogLogDiagnostics(dt, dp, der, s, find_regimes(dt, s), ref, dtc, t_s)
