@@ -33,8 +33,8 @@ Procedure (:func:`after_closure_analysis`): on the shut-in samples after closure
    and the slope the derivative shows, and any fit rejected below).
 
 A fit is used only if it describes an after-closure *decline* (:func:`admissible`): the
-pressure falls over the window fitted (the fall from its first to its last fifth exceeds
-three noise levels, the noise floored by the gauge's quantisation), the fitted decline falls
+pressure falls over the window fitted (the fall from its first to its last twentieth
+exceeds three noise levels, the noise floored by the gauge's quantisation), the fitted decline falls
 (a positive slope against F, a positive amplitude of the exponential), and the reservoir
 pressure lies below the closure pressure and below the ISIP. A pressure that rises after
 "closure" (a leaking valve, thermal expansion, a closure picked too early) would otherwise
@@ -244,7 +244,9 @@ def admissible(t: np.ndarray, p: np.ndarray, p_r: float, falls: bool, closure: f
     noise : float
         One-sigma noise of the pressure [Pa], floored by the quantisation error.
     """
-    k = max(2, p.size // 5)
+    # Ends of the window: a twentieth of it (3 samples at least), so that a decline that
+    # has levelled off over most of a long window still shows its fall.
+    k = max(3, p.size // 20)
     first, last = float(np.median(p[:k])), float(np.median(p[-k:]))
     if not first - last > 3.0 * noise:
         verb = "rises" if last > first + 3.0 * noise else "does not fall"
