@@ -25,11 +25,15 @@ from xlotkit.interpret.diagnostics import diagnose_record
 from xlotkit.interpret.diagnostics.gfunction import diagnose_g_function
 from xlotkit.interpret.picks.core import pick_record
 from xlotkit.interpret.picks.types import Pick
+from xlotkit.interpret.plots.labels import LabelPlacer
 from xlotkit.interpret.plots.picks import pick_figures
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
-FIELD = ROOT.parent / "shared" / "data" / "field" / "AMS-01"
+#: The AMS-01 field records, in the project's shared data next to the checkout (or a
+#: worktree of it).
+FIELD = next((d / "shared" / "data" / "field" / "AMS-01" for d in HERE.parents
+              if (d / "shared" / "data" / "field" / "AMS-01").is_dir()), ROOT / "missing")
 
 
 def save(fig, name: str) -> None:
@@ -42,6 +46,7 @@ def signatures() -> None:
     origin and the diagnosis the toolkit reads from it."""
     fig = Figure(figsize=(11, 7.5), layout="constrained")
     axes = fig.subplots(2, 2).ravel()
+    placer = LabelPlacer()
     for ax, pre in zip(axes, PRE_CLOSURE):
         rec, seg, tr = dfit_record(pre=pre, after="exponential", duration=3.0, dt=2.0,
                                    noise=0.02e5)
@@ -50,14 +55,15 @@ def signatures() -> None:
         sel = g.G <= 1.3 * g.g_closure
         ax.plot(g.G[sel], g.g_dpdg[sel] / 1e5, color="tab:red", lw=1.2, label="G·dP/dG")
         gg = np.linspace(0, 1.3 * g.g_closure, 20)
-        ax.plot(gg, g.m * gg / 1e5, "k--", lw=0.9, label="line through the origin, m·G")
+        ax.plot(gg, g.m * gg / 1e5, "k--", lw=0.9, label="line through the origin, tangent at closure")
         ax.axvline(g.g_closure, color="tab:green", ls=":", label="closure (constructed)")
         ax.set_title(f"constructed: {pre.replace('_', ' ')}\ndiagnosed: {g.words}",
                      fontsize=9)
         ax.set_xlabel("G")
         ax.set_ylabel("G·dP/dG [bar]")
-        ax.legend(fontsize=7, loc="upper left")
+        placer.legend(ax, fontsize=7, prefer="upper left")
         ax.grid(alpha=0.3)
+    placer.place(fig)
     save(fig, "g_signatures")
 
 
@@ -68,6 +74,17 @@ def dfit_radial() -> None:
     figs = pick_figures(rp, diagnose_record(rp))
     for k in ("cycle1_g_function", "cycle1_loglog", "cycle1_after_closure"):
         save(figs[k], f"dfit_radial_{k.split('_', 1)[1]}")
+
+
+def dfit_linear() -> None:
+    """A long DFIT-like shut-in (30 closure times) with linear flow after closure, closure
+    picked by the toolkit."""
+    rec, seg, tr = dfit_record(pre="normal", after="linear", duration=30.0, dt=5.0,
+                               noise=0.02e5)
+    rp = pick_record(rec, seg)
+    figs = pick_figures(rp, diagnose_record(rp))
+    for k in ("cycle1_g_function", "cycle1_after_closure"):
+        save(figs[k], f"dfit_linear_{k.split('_', 1)[1]}")
 
 
 def lumped_exponential() -> None:
@@ -107,13 +124,15 @@ def field() -> None:
     files = sorted(FIELD.glob("XLOT 1*"))
     it = interpret_record(read_logs([str(f) for f in files]))
     figs = pick_figures(it.picks, it.diagnostics)
-    for k in ("overview", "cycle1_g_function", "cycle1_loglog", "cycle1_sqrt_t"):
+    for k in ("overview", "cycle1_g_function", "cycle1_loglog", "cycle1_sqrt_t",
+              "cycle3_g_function"):
         save(figs[k], f"ams01_xlot1_{k}")
 
 
 if __name__ == "__main__":
     signatures()
     dfit_radial()
+    dfit_linear()
     lumped_exponential()
     gradual_flowback()
     if FIELD.is_dir():

@@ -414,6 +414,8 @@ def _pick_table(label: str, interp) -> str:
             lines.append(f"    regime (mu={d['mu']}): {d['regime']}")
         for a in d["assumptions"]:
             lines.append(f"    assumed: {a}")
+        for o in d.get("omitted", []):
+            lines.append(f"    not estimated: {o}")
     else:
         lines.append(f"  stress: {s.message}")
     if interp.diagnostics is not None:

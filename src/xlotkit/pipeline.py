@@ -373,6 +373,8 @@ def demo_summary(interp: Interpretation, truth: dict, sim_message: str,
             lines.append(f"Faulting regime (mu = {s.mu}): {s.regime}.")
         for a in s.assumptions:
             lines.append(f"* assumed: {a}")
+        for o in s.omitted:
+            lines.append(f"* not estimated: {o}")
     else:
         lines.append(s.message)
     lines += ["", "Plots: `interpretation/*.png`. Picks: `interpretation/picks.csv`, "

@@ -1,12 +1,16 @@
-"""The plots an engineer reads: labels clear of each other and inside the axes, legends in
-words, the interval band and the window drawn, the report PDF written."""
+"""The plots an engineer reads: every text (pick labels, notes, legends) clear of every
+drawn line on every axes and of every other text, labels inside the axes, legends in words,
+the interval band and the window drawn, the report PDF written."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.text import Text
+from plot_geometry import collisions, segment_hits
 
 from xlotkit.interpret.calibration.records import ConstructedSpec, construct_record, dfit_record
 from xlotkit.interpret.diagnostics import diagnose_record
@@ -14,9 +18,14 @@ from xlotkit.interpret.picks.core import pick_record
 from xlotkit.interpret.plots.labels import LabelPlacer
 from xlotkit.interpret.plots.picks import pick_figures
 
+#: The AMS-01 field records, in the project's shared data next to the checkout (or a
+#: worktree of it).
+FIELD = next((d / "shared" / "data" / "field" / "AMS-01" for d in Path(__file__).parents
+              if (d / "shared" / "data" / "field" / "AMS-01").is_dir()), Path("missing"))
+
 #: Internal names that must never reach a legend or a label.
 INTERNAL = ("line_after", "line_open", "line_closed", "flowback_sqrt_p", "flowback_p_v",
-            "g_function", "sqrt_t", "_range", "fitted line")
+            "g_function", "sqrt_t", "_range", "fitted line", "m G_c", "m·G")
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +38,10 @@ def figures():
                               duration=6.0, tau=800.0)
     rp2 = pick_record(rec, seg)
     figs.update({f"dfit_{k}": f for k, f in pick_figures(rp2, diagnose_record(rp2)).items()})
+    rec, seg, _ = dfit_record(pre="normal", after="radial", duration=30.0, dt=5.0,
+                              noise=0.02e5)
+    rp3 = pick_record(rec, seg)
+    figs.update({f"radial_{k}": f for k, f in pick_figures(rp3, diagnose_record(rp3)).items()})
     return figs
 
 
@@ -102,3 +115,75 @@ def test_diagnostic_plots_show_the_interval_band_and_the_window(figures):
     assert any("leak-off diagnosis" in t for t in g)
     ll = [t for t in _texts(figures["dfit_cycle1_loglog"])]
     assert {"½", "¼", "¾", "0", "1"} <= set(ll)
+
+
+def test_segment_box_intersection_of_the_geometry_check():
+    # The checker itself, against hand-made cases: through, inside, beside, corner-cut.
+    box = (0.0, 0.0, 10.0, 5.0)
+    p0 = np.array([[-5.0, 2.0], [2.0, 1.0], [-5.0, 7.0], [-1.0, 4.0], [11.0, -1.0]])
+    p1 = np.array([[15.0, 2.0], [3.0, 2.0], [15.0, 6.0], [2.0, 7.0], [12.0, 9.0]])
+    assert segment_hits(box, p0, p1).tolist() == [True, True, False, True, False]
+
+
+def test_no_text_over_a_line_or_another_text(figures):
+    """Every figure (G-function and square-root-of-time with a twin axis, p-t overview,
+    p-V, flowback, bilinear, log-log, after-closure): no pick label, note, legend or fixed
+    text meets a rendered line segment or marker of any axes, or another text (exact
+    segment-box intersection of the drawn geometry, renderer boxes)."""
+    bad = {name: collisions(fig) for name, fig in figures.items()}
+    assert not any(bad.values()), {k: v for k, v in bad.items() if v}
+
+
+@pytest.mark.skipif(not FIELD.is_dir(), reason="AMS-01 field data not available")
+def test_no_text_over_a_line_on_the_field_record():
+    """AMS-01 XLOT 1 (surface + downhole merged): the figures where the audit found text
+    struck through (the leak-off diagnosis over G dP/dG, dP/dG and the line through the
+    origin; the G-function pick's label on G dP/dG; a pick label on the derivative of the
+    square-root plot; legends over the right-axis curve) are clean."""
+    from xlotkit.interpret.io import read_logs
+    from xlotkit.pipeline import interpret_record
+
+    it = interpret_record(read_logs([str(f) for f in sorted(FIELD.glob("XLOT 1*"))]))
+    figs = pick_figures(it.picks, it.diagnostics)
+    keys = [k for k in figs if k == "overview" or k.endswith(
+        ("_g_function", "_sqrt_t", "_flowback_p_v", "_flowback_sqrt_p"))]
+    assert "cycle1_g_function" in keys
+    bad = {k: collisions(figs[k]) for k in keys}
+    assert not any(bad.values()), {k: v for k, v in bad.items() if v}
+
+
+def test_a_note_with_no_room_inside_goes_below_the_axes():
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6, 4), layout="constrained")
+    ax = fig.subplots()
+    x = np.linspace(0, 10, 400)
+    for k in range(40):     # lines everywhere: no free spot inside for the note
+        ax.plot(x, np.sin(x + 0.3 * k) + 0.1 * k, lw=0.8)
+    ax.set_xlabel("time [s]")
+    pl = LabelPlacer()
+    pl.note(ax, "a long note that has nowhere to go inside the axes, so it goes below")
+    pl.legend(ax, [ax.get_lines()[0]], ["one curve"])
+    pl.place(fig)
+    r = fig.canvas.get_renderer()
+    axbox = ax.get_window_extent(r)
+    note = next(t for t in ax.texts if t.get_text().startswith("a long note"))
+    b = Text.get_window_extent(note, r)
+    assert b.y1 < axbox.y0 and b.y1 < ax.xaxis.get_tightbbox(r).y0
+    assert b.y0 >= 0
+    # The small legend finds the strip the autoscale margin leaves free, or goes below too.
+    assert collisions(fig) == []
+
+
+def test_every_diagnostic_plot_marks_its_window_as_a_band(figures):
+    """The log-log and after-closure plots (exponential and radial regime) shade the data
+    window of the after-closure fit; the after-closure plots draw the reservoir pressure's
+    interval as a band."""
+    for key in ("dfit_cycle1_loglog", "dfit_cycle1_after_closure", "radial_cycle1_loglog",
+                "radial_cycle1_after_closure"):
+        fig = figures[key]
+        ax = fig.axes[0]
+        spans = [p.get_label() for p in ax.patches]
+        assert any(lab.startswith("data window used") for lab in spans), (key, spans)
+        if key.endswith("after_closure"):
+            assert any("reservoir pressure 90 % interval" in lab for lab in spans), key

@@ -92,6 +92,9 @@ class StressSummary:
         Every default that was used.
     source_cycle : int or None
         Cycle whose FCP gave sigma_h.
+    omitted : tuple of str
+        What the estimate left out and why (sigma_H, the stress polygon's regime), in
+        words.
     """
 
     available: bool
@@ -114,6 +117,7 @@ class StressSummary:
     pore_pressure_low: float | None = None
     pore_pressure_high: float | None = None
     pore_pressure_source: str = "default"
+    omitted: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict in field units (bar, m, sg)."""
@@ -147,6 +151,7 @@ class StressSummary:
             "mu": self.mu,
             "regime": self.regime,
             "assumptions": list(self.assumptions),
+            "omitted": list(self.omitted),
         }
 
 
@@ -289,6 +294,17 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     pr = next((c.get("Pr") for c in record_picks.test_cycles[1:]
                if c.get("Pr") is not None and c.get("Pr").found), None)
     regime = None
+    omitted: list[str] = []
+    p0_words = {"given": "given", "after-closure": "from the after-closure analysis",
+                "default": "hydrostatic 1.03 sg default"}[p0_src]
+    if pr is None:
+        omitted.append("sigma_H and the faulting regime: no reopening pressure Pr was picked "
+                       "in a later cycle (Eq. C.19 needs it)")
+    elif not sh > p0:
+        omitted.append(f"sigma_H and the faulting regime: sigma_h {sh / _BAR:.1f} bar is not "
+                       f"above the pore pressure {p0 / _BAR:.1f} bar ({p0_words}); Eq. C.19 "
+                       "and the stress polygon need sigma_h > p0 (give --pore-gradient if the "
+                       "pore pressure is known)")
     if pr is not None and sh is not None and sh > p0:
         pr_u = st.Uncertain(at_depth(pr.value),
                             low=at_depth(pr.low if pr.low is not None else pr.value),
@@ -309,9 +325,16 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
             poly = st.stress_polygon(sv, p0, inputs.mu)
             lo_s, hi_s = sorted((sh, best))
             regime = poly.classify(lo_s, hi_s).regime
+        else:
+            omitted.append("the faulting regime: sigma_H could not be computed "
+                           f"({next(iter(sigma_H.values()))['message']})")
+    elif sigma_H and not sv > p0:
+        omitted.append(f"the faulting regime: the vertical stress {sv / _BAR:.1f} bar is not "
+                       f"above the pore pressure {p0 / _BAR:.1f} bar ({p0_words}), so there "
+                       "is no stress polygon")
     return StressSummary(
         True, "", target, sh, sh_lo, sh_hi,
         t0v, t0.low if t0.found else None, t0.high if t0.found else None,
         sigma_H, p0, sv, inputs.mu, regime, tuple(assumptions), src.index, estimates,
-        p0_lo, p0_hi, p0_src,
+        p0_lo, p0_hi, p0_src, tuple(omitted),
     )

@@ -66,6 +66,17 @@ The truth (:class:`Truth`) is given on the record's own pressure reference, as t
 would read it without noise: ``sigma_h - p_hyd`` on a surface record, and so on; T0 is a
 difference and does not depend on the reference.
 
+*Closure in the data.* A cycle's closure is a **case** for the closure picks when the
+recorded decline holds it: from the pump stop to the end of the phase that crosses closure
+(the shut-in, or the short shut-in and the flowback), at least :data:`CASE_SAMPLES`
+samples lie above the transition (``p > sigma_h + w/2``, counted after the pump-stop drop
+has decayed, three drop times) and at least as many below it (``p < sigma_h - w/2``). A
+decline that ends above closure, or starts below it, holds no closure to find
+(:attr:`Truth.closure_in_data`). How visible the closure is, is recorded too
+(:attr:`Truth.closure_contrast`): the ratio of the clean decline's slopes just after and
+just before the transition (on ``G`` for a shut-in, on the returned volume for a
+flowback; 1 means no signature at all).
+
 Everything is deterministic for a given :class:`ConstructedSpec` (its ``seed`` drives the
 noise); :func:`draw_spec` draws a spec from a documented distribution.
 """
@@ -73,7 +84,7 @@ noise); :func:`draw_spec` draws a spec from a documented distribution.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -85,6 +96,7 @@ from xlotkit.units import GRAVITY
 
 __all__ = [
     "AFTER_CLOSURE",
+    "CASE_SAMPLES",
     "PRE_CLOSURE",
     "DfitTruth",
     "dfit_record",
@@ -99,6 +111,9 @@ __all__ = [
 
 _BAR = 1e5
 _LPM = 1e-3 / 60.0
+
+#: Samples needed on each side of the closure transition for a closure to be in the data.
+CASE_SAMPLES = 10
 
 #: Leak-off models of the generator (module docstring).
 LEAKOFF_MODELS = ("carter", "pressure_dependent", "height_recession", "wall_leak")
@@ -282,6 +297,12 @@ class Truth:
         Full width of the closure transition.
     reference : str
         ``"bottomhole"`` or ``"surface"``.
+    closure_in_data : tuple of bool
+        Per cycle, whether the recorded decline holds the closure (module docstring): the
+        closure picks' cases.
+    closure_contrast : tuple of float
+        Per cycle, the clean decline's slope after the transition over the slope before it
+        (G for a shut-in, returned volume for a flowback); NaN where not measurable.
     """
 
     sigma_h: float
@@ -294,6 +315,8 @@ class Truth:
     closure_phase: tuple[str, str]
     transition_width: float
     reference: str
+    closure_in_data: tuple[bool, bool] = (True, True)
+    closure_contrast: tuple[float, float] = (math.nan, math.nan)
 
 
 @dataclass(frozen=True)
@@ -467,7 +490,8 @@ def construct_record(sp: ConstructedSpec) -> ConstructedRecord:
     tl.add(t_b, t_s, prop, rate=q, kind="pump")
     p_fs = float(prop(t_s)) - sp.nwb
     truth_isip.append(p_fs)
-    t_end = _decline_cycle(sp, tl, 0, t_s, t_s - t_pump0, p_fs, closure_phase)
+    spans: list = []
+    t_end = _decline_cycle(sp, tl, 0, t_s, t_s - t_pump0, p_fs, closure_phase, spans)
     # ------------------------------------------------------------------ cycle 2 pump
     p_start = tl.pieces[-1][2](t_end)
     p_start = float(np.asarray(p_start))
@@ -481,14 +505,51 @@ def construct_record(sp: ConstructedSpec) -> ConstructedRecord:
            kind="pump")
     p_fs2 = float(p_of_v2(v_end)) - sp.nwb
     truth_isip.append(p_fs2)
-    t_end = _decline_cycle(sp, tl, 1, t_s2, t_s2 - t2, p_fs2, closure_phase)
-    return _sample(sp, tl, rng, truth_isip, closure_phase, t_end)
+    t_end = _decline_cycle(sp, tl, 1, t_s2, t_s2 - t2, p_fs2, closure_phase, spans)
+    cr = _sample(sp, tl, rng, truth_isip, closure_phase, t_end)
+    cases = [_closure_case(sp, cr, *span) for span in spans]
+    truth = replace(cr.truth, closure_in_data=tuple(c[0] for c in cases),
+                    closure_contrast=tuple(c[1] for c in cases))
+    return replace(cr, truth=truth)
+
+
+def _closure_case(sp: ConstructedSpec, cr: ConstructedRecord, kind: str, t0: float,
+                  t1: float, t_s: float, t_p: float) -> tuple[bool, float]:
+    """``(closure_in_data, closure_contrast)`` of the phase ``[t0, t1)`` that crosses
+    closure (module docstring); ``t_s``, ``t_p``: pump stop and pumping time [s]."""
+    t, p = cr.clean["t"], cr.clean["p_bottomhole"]
+    w = sp.transition_width
+    dec = (t >= t_s + 3.0 * sp.drop_tau) & (t < t1)
+    in_data = (int(np.sum(dec & (p > sp.sigma_h + 0.5 * w))) >= CASE_SAMPLES
+               and int(np.sum(dec & (p < sp.sigma_h - 0.5 * w))) >= CASE_SAMPLES)
+    m = (t >= t0) & (t < t1)
+    tt, pp = t[m], p[m]
+    if kind == "shut_in":
+        x = _G(np.maximum(tt - t_s, 0.0), t_p)
+    else:
+        rv = cr.record.return_volume[m]
+        x = rv - rv[0]
+    ia = np.flatnonzero(pp <= sp.sigma_h + 0.5 * w)
+    ib = np.flatnonzero(pp <= sp.sigma_h - 0.5 * w)
+    contrast = math.nan
+    if ia.size and ib.size:
+        xa, xb = float(x[ia[0]]), float(x[ib[0]])
+        d = 0.25 * max(xa - float(x[0]), 1e-12)
+        m1 = (x >= xa - d) & (x <= xa)
+        m2 = (x >= xb) & (x <= xb + d)
+        if m1.sum() >= 3 and m2.sum() >= 3:
+            s1 = np.polyfit(x[m1], pp[m1], 1)[0]
+            s2 = np.polyfit(x[m2], pp[m2], 1)[0]
+            if s1 != 0:
+                contrast = float(s2 / s1)
+    return in_data, contrast
 
 
 def _decline_cycle(sp: ConstructedSpec, tl: _Timeline, c: int, t_s: float, t_p: float,
-                   p_fs: float, closure_phase: list) -> float:
+                   p_fs: float, closure_phase: list, spans: list) -> float:
     """Shut-in (through closure, or short and then a flowback through closure) of cycle
-    ``c`` from pump stop ``t_s``; appends pieces to ``tl`` and returns the end time."""
+    ``c`` from pump stop ``t_s``; appends pieces to ``tl``, the phase crossing closure to
+    ``spans`` as ``(kind, t0, t1, t_s, t_p)``, and returns the end time."""
     g_c = sp.g_closure[c]
     drop = sp.nwb
 
@@ -503,6 +564,7 @@ def _decline_cycle(sp: ConstructedSpec, tl: _Timeline, c: int, t_s: float, t_p: 
         ts, ps = _integrate(dec, p_fs, t_s, t1)
         tl.add(t_s, t1, with_drop(_interp_fn(ts, ps)), kind="shut_in")
         closure_phase.append("shut_in")
+        spans.append(("shut_in", t_s, t1, t_s, t_p))
         return t1
     # A short shut-in that stays above closure (it ends with half the net pressure left,
     # at the latest), then the choke opens.
@@ -527,6 +589,7 @@ def _decline_cycle(sp: ConstructedSpec, tl: _Timeline, c: int, t_s: float, t_p: 
     ret = (lambda tt, f=fn2, z=zeta: z * np.sqrt(np.clip(f(tt) - sp.p_hyd, 0.0, None)))
     tl.add(t1, t2, with_drop(fn2), ret=ret, kind="flowback")
     closure_phase.append("flowback")
+    spans.append(("flowback", t1, t2, t_s, t_p))
     # The choke closes; a short shut-in.
     t3 = t2 + 120.0
     ts3, ps3 = _integrate(dec, float(ps2[-1]), t2, t3)

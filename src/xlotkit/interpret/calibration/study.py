@@ -11,10 +11,33 @@ intervals are tested, not the segmentation) and compares every pick with the tru
 * ``ISIP`` of both cycles, ``LOP`` and ``FBP`` of cycle 1, ``Pr`` of cycle 2,
   ``T0 = FBP - Pr``.
 
-A pick *covers* when ``low <= truth <= high``. The summary gives per quantity and method
-the number of records where the truth exists, how many picks were found, the coverage of
-the found ones and the median interval width (absolute and relative to the truth's scale:
-``sigma_h`` for pressures, ``T0`` for T0).
+A pick *covers* when ``low <= truth <= high``.
+
+Cases
+-----
+A **case** is a truth the record's data hold, so that a pick can be asked of it. For the
+closure it is a cycle whose recorded decline holds the closure on both sides: at least
+:data:`~xlotkit.interpret.calibration.records.CASE_SAMPLES` samples above and below the
+closure transition in the phase that crosses it (:attr:`Truth.closure_in_data`; a shut-in
+that ends above closure is no case), and for a method the phase it reads (shut-in methods
+on shut-in closures, flowback methods on flowback closures; the consensus on every
+closure). ISIP, FBP, LOP, Pr and T0 are cases wherever the constructed record has them.
+A closure pick made where the cycle holds no closure is no case; it is still compared
+with ``sigma_h`` (a closure reported where there is none is a miss, whatever its interval).
+
+The summary gives per quantity and method:
+
+* ``cases``, ``found`` (picks made on cases) and the **found rate** ``found / cases``;
+* the **coverage of the found picks** (covered / all picks made, cases or not): how often
+  an interval the toolkit states contains the truth;
+* the **coverage over all cases** (covered picks on cases / cases): a case without a pick
+  counts as a miss, so this is coverage times found rate, the chance that the toolkit both
+  answers and is right;
+* the median interval width (absolute and relative to the truth's scale: ``sigma_h`` for
+  pressures, ``T0`` for T0) and the median absolute error of the found picks.
+
+:meth:`StudyResult.found_rate_by` breaks the found rate of a quantity down by a factor of
+the records (gauge, leak-off model, closure contrast...).
 """
 
 from __future__ import annotations
@@ -59,7 +82,10 @@ class Outcome:
     scale : float
         Scale for relative widths [Pa] (``sigma_h`` or the true T0).
     factors : dict
-        The record's factors (gauge, leak-off model, transition, dt, closure phase).
+        The record's factors (gauge, leak-off model, transition, dt, closure phase,
+        closure contrast).
+    case : bool
+        Whether the truth is a case (module docstring).
     """
 
     record: int
@@ -73,6 +99,7 @@ class Outcome:
     level: float | None
     scale: float
     factors: dict = field(default_factory=dict)
+    case: bool = True
 
     @property
     def found(self) -> bool:
@@ -105,13 +132,20 @@ class Outcome:
 
 @dataclass(frozen=True)
 class SummaryRow:
-    """Coverage of one quantity/method over the study."""
+    """Coverage of one quantity/method over the study (module docstring).
+
+    ``n_cases``: truths the data hold; ``n_found``: picks made on them; ``n_extra``: picks
+    made where the data hold no case; ``n_covered``: covered picks among all picks made;
+    ``n_covered_cases``: covered picks among the cases.
+    """
 
     quantity: str
     method: str
-    n_truth: int
+    n_cases: int
     n_found: int
+    n_extra: int
     n_covered: int
+    n_covered_cases: int
     level: float | None
     median_width: float
     median_relative_width: float
@@ -119,8 +153,19 @@ class SummaryRow:
 
     @property
     def coverage(self) -> float:
-        """Covered / found (NaN without found picks)."""
-        return self.n_covered / self.n_found if self.n_found else math.nan
+        """Covered / picks made (cases or not); NaN without picks."""
+        made = self.n_found + self.n_extra
+        return self.n_covered / made if made else math.nan
+
+    @property
+    def found_rate(self) -> float:
+        """Picks made on cases / cases (NaN without cases)."""
+        return self.n_found / self.n_cases if self.n_cases else math.nan
+
+    @property
+    def coverage_all(self) -> float:
+        """Covered picks on cases / cases: a case without a pick is a miss."""
+        return self.n_covered_cases / self.n_cases if self.n_cases else math.nan
 
 
 @dataclass(frozen=True)
@@ -148,30 +193,71 @@ class StudyResult:
         rows = []
         for q, m in keys:
             sel = self.select(q, m)
-            found = [o for o in sel if o.found]
-            levels = {o.level for o in found}
-            w = np.array([o.width for o in found])
-            rw = np.array([o.width / o.scale for o in found])
-            err = np.array([abs(o.error) for o in found])
+            made = [o for o in sel if o.found]
+            cases = [o for o in sel if o.case]
+            levels = {o.level for o in made}
+            w = np.array([o.width for o in made])
+            rw = np.array([o.width / o.scale for o in made])
+            err = np.array([abs(o.error) for o in made])
             rows.append(SummaryRow(
-                q, m, len([o for o in sel if o.truth is not None]), len(found),
-                sum(o.covered for o in found),
+                q, m, len(cases), sum(o.found for o in cases),
+                sum(o.found and not o.case for o in sel), sum(o.covered for o in made),
+                sum(o.covered for o in cases),
                 levels.pop() if len(levels) == 1 else None,
                 float(np.median(w)) if w.size else math.nan,
                 float(np.median(rw)) if rw.size else math.nan,
                 float(np.median(err)) if err.size else math.nan))
         return rows
 
+    def found_rate_by(self, quantity: str, method: str, factor: str,
+                      bins: Sequence[float] | None = None) -> list[tuple[str, int, int, int]]:
+        """Found rate of ``quantity``/``method`` on its cases, by ``factor``.
+
+        Parameters
+        ----------
+        factor : str
+            A key of :attr:`Outcome.factors`.
+        bins : sequence of float, optional
+            Edges for a numeric factor (values outside fall in the end bins); default: one
+            row per distinct value.
+
+        Returns
+        -------
+        list of (label, cases, found, covered)
+        """
+        cases = [o for o in self.select(quantity, method) if o.case]
+        groups: dict[tuple, list[Outcome]] = {}
+        for o in cases:
+            v = o.factors.get(factor)
+            if bins is None:
+                key = (0, v if isinstance(v, (int, float)) else 0, str(v))
+            elif v is None or not np.isfinite(v):
+                key = (1, 0, "not measurable")
+            else:
+                k = int(np.searchsorted(bins, v, side="right"))
+                lab = (f"below {bins[0]:g}" if k == 0 else
+                       f"{bins[-1]:g} and above" if k == len(bins) else
+                       f"{bins[k - 1]:g} to {bins[k]:g}")
+                key = (0, k, lab)
+            groups.setdefault(key, []).append(o)
+        return [(key[2], len(g), sum(o.found for o in g), sum(o.covered for o in g))
+                for key, g in sorted(groups.items(), key=lambda kv: kv[0])]
+
     def to_markdown(self) -> str:
         """The summary as a markdown table (widths in bar and % of the scale)."""
-        lines = ["| quantity | method | records | found | nominal level | coverage | "
+        lines = ["| quantity | method | cases | found | found rate | found outside cases | "
+                 "nominal level | coverage of found picks | coverage over all cases | "
                  "median width [bar] | median width [% of scale] | median abs. error [bar] |",
-                 "|---|---|---|---|---|---|---|---|---|"]
+                 "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+
+        def pct(x):
+            return f"{100 * x:.1f} %" if np.isfinite(x) else "–"
+
         for r in self.summary():
             lv = f"{100 * r.level:.0f} %" if r.level is not None else "–"
-            cov = f"{100 * r.coverage:.1f} %" if r.n_found else "–"
-            lines.append(f"| {r.quantity} | {r.method} | {r.n_truth} | {r.n_found} | {lv} | "
-                         f"{cov} | {r.median_width / _BAR:.2f} | "
+            lines.append(f"| {r.quantity} | {r.method} | {r.n_cases} | {r.n_found} | "
+                         f"{pct(r.found_rate)} | {r.n_extra} | {lv} | {pct(r.coverage)} | "
+                         f"{pct(r.coverage_all)} | {r.median_width / _BAR:.2f} | "
                          f"{100 * r.median_relative_width:.2f} | "
                          f"{r.median_abs_error / _BAR:.2f} |")
         return "\n".join(lines)
@@ -183,6 +269,8 @@ def _factors(cr: ConstructedRecord, cycle: int | None) -> dict:
          "dt": sp.dt, "noise_bar": sp.noise / _BAR, "resolution_bar": sp.resolution / _BAR}
     if cycle is not None:
         f["closure_phase"] = cr.truth.closure_phase[cycle - 1]
+        f["closure_contrast"] = cr.truth.closure_contrast[cycle - 1]
+        f["closure_in_data"] = cr.truth.closure_in_data[cycle - 1]
     return f
 
 
@@ -194,13 +282,13 @@ def evaluate_record(cr: ConstructedRecord, index: int = 0) -> list[Outcome]:
     tr = cr.truth
     out: list[Outcome] = []
 
-    def add(cycle, quantity, pick, truth, scale, method=None):
+    def add(cycle, quantity, pick, truth, scale, method=None, case=True):
         out.append(Outcome(index, cycle, quantity, method or pick.method, float(truth),
                            pick.value if pick.found else None,
                            pick.low if pick.found else None,
                            pick.high if pick.found else None,
                            getattr(pick, "level", None), float(scale),
-                           _factors(cr, cycle)))
+                           _factors(cr, cycle), case))
 
     sh = tr.sigma_h
     scale = cr.spec.sigma_h
@@ -209,12 +297,13 @@ def evaluate_record(cr: ConstructedRecord, index: int = 0) -> list[Outcome]:
         if k > 2:
             continue
         phase = tr.closure_phase[k - 1]
+        in_data = tr.closure_in_data[k - 1]
         for m, p in c.fcp_methods().items():
             expected = (m.startswith("flowback") if phase == "flowback"
                         else not m.startswith("flowback"))
             if p.found or expected:
-                add(k, "FCP", p, sh, scale)
-        add(k, "FCP", c.fcp, sh, scale, "consensus")
+                add(k, "FCP", p, sh, scale, case=expected and in_data)
+        add(k, "FCP", c.fcp, sh, scale, "consensus", case=in_data)
         isip = c.get("ISIP")
         if isip is not None:
             add(k, "ISIP", isip, tr.isip[k - 1], scale)

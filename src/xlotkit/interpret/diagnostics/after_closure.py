@@ -30,7 +30,15 @@ Procedure (:func:`after_closure_analysis`): on the shut-in samples after closure
 3. else the exponential: the fit of :class:`ExponentialDeclineModel` to all after-closure
    data leaves residuals at the noise level and the record spans at least one decay time;
 4. else "after-closure flow not reached", with why (the record's length after closure
-   and the slope the derivative shows).
+   and the slope the derivative shows, and any fit rejected below).
+
+A fit is used only if it describes an after-closure *decline* (:func:`admissible`): the
+pressure falls over the window fitted (the fall from its first to its last twentieth
+exceeds three noise levels, the noise floored by the gauge's quantisation), the fitted decline falls
+(a positive slope against F, a positive amplitude of the exponential), and the reservoir
+pressure lies below the closure pressure and below the ISIP. A pressure that rises after
+"closure" (a leaking valve, thermal expansion, a closure picked too early) would otherwise
+give an asymptote above closure that then replaces the pore pressure.
 
 The regime's line (or the exponential) is fitted, ``p_r`` is its intercept (asymptote),
 and its interval has the stated level (:mod:`~xlotkit.interpret.picks.intervals`): the
@@ -219,6 +227,43 @@ def _line_budget(F: np.ndarray, p: np.ndarray, a: int, b: int, q: float,
                      resolution=0.5 * q)
 
 
+def admissible(t: np.ndarray, p: np.ndarray, p_r: float, falls: bool, closure: float,
+               isip: float | None, noise: float) -> str | None:
+    """Why a fit over the window ``(t, p)`` is not an after-closure decline, or None.
+
+    Parameters
+    ----------
+    t, p : ndarray
+        The window's samples [s, Pa].
+    p_r : float
+        The fit's reservoir pressure [Pa].
+    falls : bool
+        Whether the fitted curve falls with time (slope against F, amplitude).
+    closure, isip : float
+        Closure pressure and ISIP [Pa] (ISIP None when not picked).
+    noise : float
+        One-sigma noise of the pressure [Pa], floored by the quantisation error.
+    """
+    # Ends of the window: a twentieth of it (3 samples at least), so that a decline that
+    # has levelled off over most of a long window still shows its fall.
+    k = max(3, p.size // 20)
+    first, last = float(np.median(p[:k])), float(np.median(p[-k:]))
+    if not first - last > 3.0 * noise:
+        verb = "rises" if last > first + 3.0 * noise else "does not fall"
+        return (f"the pressure {verb} over the window fitted ({first / 1e5:.1f} -> "
+                f"{last / 1e5:.1f} bar from {t[0]:.0f} s to {t[-1]:.0f} s, noise "
+                f"{noise / 1e5:.2f} bar): not an after-closure decline")
+    if not falls:
+        return "the fitted curve rises with time: not an after-closure decline"
+    if not p_r < closure:
+        return (f"its reservoir pressure {p_r / 1e5:.1f} bar is not below the closure "
+                f"pressure {closure / 1e5:.1f} bar")
+    if isip is not None and not p_r < isip:
+        return (f"its reservoir pressure {p_r / 1e5:.1f} bar is not below the ISIP "
+                f"{isip / 1e5:.1f} bar")
+    return None
+
+
 def _interval_times(closure, t: np.ndarray, p: np.ndarray, t0: float) -> list[float]:
     """Times (since pumping started) at which the decline crosses the closure pick's
     interval bounds."""
@@ -232,7 +277,7 @@ def _interval_times(closure, t: np.ndarray, p: np.ndarray, t0: float) -> list[fl
     return out
 
 
-def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
+def after_closure_analysis(record, cycle, closure, isip=None) -> AfterClosureResult:
     """The after-closure analysis of a cycle's shut-in (procedure in the module docstring).
 
     Parameters
@@ -241,6 +286,8 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
     cycle : Cycle
     closure : Pick or None
         The cycle's closure; it must lie inside the shut-in.
+    isip : Pick or float, optional
+        The cycle's ISIP [Pa]: a reservoir pressure must lie below it.
 
     Returns
     -------
@@ -288,6 +335,10 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
     base["derivative_slope"] = dslope
     span = (t[-1] - t0) / max(t_c - t0, 1e-9)
     lnd = np.log(dta)
+    p_isip = getattr(isip, "value", isip)
+    p_isip = float(p_isip) if p_isip is not None else None
+    noise = max(sig, q / math.sqrt(12.0))
+    rejected: list[str] = []
     for regime, F, ref in (("radial", FR, -1.0), ("linear", FL, -0.5)):
         # dp/dF as the ratio of log-time-windowed slopes (F is steep near closure).
         dF, _ = local_fit(lnd, F, 0.15, min_points=5)
@@ -311,6 +362,11 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
         tcs = [tc * 0.8, tc * 1.2] + _interval_times(closure, t_all, p_all, t0)
         alts = [fn(tt, x) for x in tcs if 0 < x < tt[a]]
         line, bud = _line_budget(F, p, a, b, q, alts)
+        why_not = admissible(t[a:b + 1], p[a:b + 1], bud.value, line.slope > 0,
+                             float(closure.value), p_isip, noise)
+        if why_not is not None:
+            rejected.append(f"a {regime}-flow line was rejected: {why_not}")
+            continue
         return AfterClosureResult(
             True, regime, f"p against F_{regime[0].upper()} is straight from "
             f"{dta[a]:.0f} s to {dta[b]:.0f} s after closure (derivative slope "
@@ -328,6 +384,12 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
                 and dta[-1] >= tau and se is not None and np.isfinite(se))
     except (ValueError, TypeError, RuntimeError):
         good, res = False, None
+    if good:
+        why_not = admissible(t, p, pr, float(res.params["amplitude"].value) > 0,
+                             float(closure.value), p_isip, noise)
+        if why_not is not None:
+            rejected.append(f"an exponential approach was rejected: {why_not}")
+            good = False
     if good:
         trials = []
         n = p.size
@@ -349,5 +411,9 @@ def after_closure_analysis(record, cycle, closure) -> AfterClosureResult:
            f"(t/t_c = {span:.2f})")
     if dslope is not None:
         why += (f"; the derivative's log-log slope is {dslope:+.2f} at the end, neither -1/2 "
-                "(linear) nor -1 (radial flow), and no exponential approach fits")
+                "(linear) nor -1 (radial flow)")
+        if not rejected:
+            why += ", and no exponential approach fits"
+    if rejected:
+        why += "; " + "; ".join(rejected)
     return AfterClosureResult(False, None, why, **base)

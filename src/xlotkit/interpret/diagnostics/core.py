@@ -109,7 +109,7 @@ def diagnose_cycle(record, cycle_picks) -> CycleDiagnostics | None:
                                 "outside the shut-in (in the flowback), so the shut-in holds "
                                 "no after-closure decline")
     else:
-        ac = after_closure_analysis(record, cycle_picks.cycle, closure)
+        ac = after_closure_analysis(record, cycle_picks.cycle, closure, isip)
     return CycleDiagnostics(cycle_picks.index, closure, g, ll, ac)
 
 

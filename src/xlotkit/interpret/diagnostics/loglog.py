@@ -86,6 +86,8 @@ class LogLogDiagnostics:
         Reference pressure of ``dp`` [Pa].
     dt_closure : float or None
         Closure [s since pump stop], if picked inside the shut-in.
+    t_stop : float or None
+        Pump stop [s, record time]: the origin of ``dt``.
     """
 
     dt: np.ndarray
@@ -95,6 +97,7 @@ class LogLogDiagnostics:
     regimes: tuple[FlowRegime, ...] = field(default_factory=tuple)
     isip: float = 0.0
     dt_closure: float | None = None
+    t_stop: float | None = None
 
     def report(self) -> str:
         """The regimes in words."""
@@ -159,8 +162,8 @@ def loglog_diagnostics(record, cycle, *, isip=None, closure=None, L: float = 0.1
         return None
     s, _ = local_fit(np.log(dt), np.log(der), 2 * L, min_points=5)
     dtc = None
-    if closure is not None and getattr(closure, "found", False) and closure.t is not None:
-        t_s = float(c["t"][0] - c["dt"][0])
-        if c["t"][0] <= closure.t <= c["t"][-1]:
-            dtc = float(closure.t - t_s)
-    return LogLogDiagnostics(dt, dp, der, s, find_regimes(dt, s), ref, dtc)
+    t_s = float(c["t"][0] - c["dt"][0])
+    if (closure is not None and getattr(closure, "found", False) and closure.t is not None
+            and c["t"][0] <= closure.t <= c["t"][-1]):
+        dtc = float(closure.t - t_s)
+    return LogLogDiagnostics(dt, dp, der, s, find_regimes(dt, s), ref, dtc, t_s)

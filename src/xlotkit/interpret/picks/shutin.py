@@ -196,6 +196,16 @@ MIN_SLOPE_CHANGE = 0.1
 #: Window half-widths of the break scan, as fractions of the post-drop range of G.
 BREAK_SCALES = (0.03, 0.05, 0.08, 0.12)
 
+#: Window half-widths as fractions of G itself (constant width in ln G): on a long shut-in
+#: (tens of closure times, DFIT-like) the range of G dwarfs G at closure, and windows scaled
+#: by the range cannot resolve the closure; these can. Their breaks only ever displace the
+#: sharpest one to an earlier break of the other sense (:func:`_find_break`).
+BREAK_SCALES_LOCAL = (0.1, 0.2, 0.3)
+
+#: An earlier break of the other sense displaces the sharpest break when it scores at least
+#: this fraction of it (:func:`_find_break`).
+EARLIER_BREAK_FRACTION = 0.5
+
 
 def _window_slopes(x: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -293,7 +303,18 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
 
 
 def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
-    """Closure as the sharpest significant, lasting change of slope of p vs G, or None."""
+    """Closure as the sharpest significant, lasting change of slope of p vs G, or None.
+
+    The sharpest break (highest score over the windows :data:`BREAK_SCALES`) is closure
+    unless an earlier break of the other sense (stiffening before a flattening, or the
+    reverse), clear of it by its window and found at any scale (:data:`BREAK_SCALES` or the
+    local :data:`BREAK_SCALES_LOCAL`), scores at least :data:`EARLIER_BREAK_FRACTION` of it:
+    then that one is. After closure a long decline changes its regime again (the
+    after-closure flow bending towards the reservoir pressure), and that later change can
+    be the sharper one; closure comes first. A later break of the *same* sense is not
+    displaced (a gradual stiffening, such as height recession, shows early breaks of the
+    same sense that are not closure).
+    """
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
     p = sh.p[sl]
@@ -304,13 +325,26 @@ def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
     sigma = max(sh.sigma, 1e-7 * float(np.max(np.abs(p))))
     q = quantum(p)
     best: _Break | None = None
-    for f in BREAK_SCALES:
-        score, sL, sR = _scan_break(G, p, f * span, sigma, q)
-        k = int(np.argmax(score))
-        if np.isfinite(score[k]) and (best is None or score[k] > best.score):
-            best = _Break(k, float(G[k]), float(sh.t[sh.j0 + k]), f * span, float(sL[k]),
-                          float(sR[k]), float(score[k]))
-    return best
+    candidates: list[_Break] = []
+    widths = [f * span for f in BREAK_SCALES] + [f * G for f in BREAK_SCALES_LOCAL]
+    for j, w in enumerate(widths):
+        score, sL, sR = _scan_break(G, p, w, sigma, q)
+        ok = np.isfinite(score)
+        edges = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
+        # One candidate per run of admissible samples: its highest score.
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            k = a + int(np.argmax(score[a:b]))
+            wk = float(w[k]) if np.ndim(w) else float(w)
+            c = _Break(k, float(G[k]), float(sh.t[sh.j0 + k]), wk, float(sL[k]),
+                       float(sR[k]), float(score[k]))
+            candidates.append(c)
+            if j < len(BREAK_SCALES) and (best is None or c.score > best.score):
+                best = c
+    if best is None:
+        return None
+    earlier = [c for c in candidates if c.G + c.w < best.G and c.kind != best.kind
+               and c.score >= EARLIER_BREAK_FRACTION * best.score]
+    return max(earlier, key=lambda c: c.score) if earlier else best
 
 
 def _no_break_message(sh: _Shut) -> str:
@@ -592,7 +626,7 @@ def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
     dpdg, _ = local_fit(G, sh.p[sl], DERIVATIVE_L, u=np.log(np.maximum(G, 1e-12)),
                         min_points=5)
     g_c = float(np.interp(pick.t, sh.t[sl], G))
-    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c)
+    diagnosis, why, *_ = diagnose_curves(G, -dpdg, g_c, sh.p[sl])
     return diagnosis, why
 
 

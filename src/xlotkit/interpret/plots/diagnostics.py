@@ -6,6 +6,8 @@ seconds.
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -17,6 +19,9 @@ __all__ = ["plot_after_closure", "plot_loglog"]
 
 _BAR = 1e5
 _SLOPE_TEXT = {1.0: "1", 0.75: "¾", 0.5: "½", 0.25: "¼", 0.0: "0", -0.5: "−½", -1.0: "−1"}
+_WINDOW = dict(color="gold", alpha=0.25, lw=0, zorder=0)
+_FIT_NAME = {"linear": "after-closure linear-flow line", "radial":
+             "after-closure radial-flow line", "exponential": "after-closure exponential"}
 _REGIME_COLORS = {1.0: "0.6", 0.75: "tab:purple", 0.5: "tab:blue", 0.25: "tab:cyan",
                   0.0: "tab:green", -0.5: "tab:orange", -1.0: "tab:red"}
 
@@ -40,27 +45,33 @@ def plot_loglog(cp, cd) -> Figure:
               label="Δp = ISIP − p")
     ax.loglog(ll.dt, ll.derivative / _BAR, ".", ms=2, color="tab:red",
               label="Bourdet derivative Δt·dΔp/dΔt")
+    placer = LabelPlacer()
     # Reference slopes: short lines through the derivative, the positive ones early, the
     # after-closure (negative) ones late.
     lx = np.log10(ll.dt)
+    slope_marks = []
     for frac in (0.15, 0.85):
         k = int(np.argmin(np.abs(lx - (lx[0] + frac * (lx[-1] - lx[0])))))
         x0, y0 = ll.dt[k], ll.derivative[k] / _BAR
         for s, _ in REGIMES:
             if (frac < 0.5) == (s < 0):
                 continue
-            xx = x0 * 10 ** np.array([-0.3, 0.3])
+            # (inside the data's range, so that the slope's name lies in the plot)
+            xx = np.clip(x0 * 10 ** np.array([-0.3, 0.3]), ll.dt[0], ll.dt[-1])
             ax.loglog(xx, y0 * (xx / x0) ** s, "-", color=_REGIME_COLORS[s], lw=0.8,
                       alpha=0.7)
-            ax.annotate(_SLOPE_TEXT[s], (xx[1], y0 * (xx[1] / x0) ** s), fontsize=7,
-                        color=_REGIME_COLORS[s], xytext=(2, 0), textcoords="offset points")
+            slope_marks.append((float(xx[1]), float(y0 * (xx[1] / x0) ** s),
+                                _SLOPE_TEXT[s], _REGIME_COLORS[s]))
     used = set()
     for r in ll.regimes:
         ax.axvspan(r.dt_start, r.dt_end, color=_REGIME_COLORS[r.slope], alpha=0.12, lw=0,
                    label=None if r.name in used else
                    f"{r.name} (slope {_SLOPE_TEXT[r.slope]})")
         used.add(r.name)
-    placer = LabelPlacer()
+    ac = cd.after_closure
+    if ac.reached and ac.window is not None and ll.t_stop is not None:
+        ax.axvspan(ac.window[0] - ll.t_stop, ac.window[1] - ll.t_stop, **_WINDOW,
+                   label=f"data window used: {_FIT_NAME[ac.regime]}")
     cl = cd.closure
     if ll.dt_closure is not None and cl is not None:
         ax.axvline(ll.dt_closure, color="k", ls=":", lw=1, label="closure")
@@ -72,6 +83,9 @@ def plot_loglog(cp, cd) -> Figure:
                        else "closure range")
         y = float(np.interp(ll.dt_closure, ll.dt, ll.derivative)) / _BAR
         placer.add(ax, ll.dt_closure, y, interval_text(cl, "closure"), "k")
+    # (after the closure label: the slopes' names may move, the pick's should not)
+    for x, y, text, col in slope_marks:
+        placer.add(ax, x, y, text, col, fontsize=7, marker=False)
     ax.set_xlim(ll.dt[0] * 0.8, ll.dt[-1] * 1.25)
     lo_y = np.nanmin(ll.derivative[ll.derivative > 0]) / _BAR
     hi_y = np.nanmax(ll.dp) / _BAR
@@ -81,7 +95,7 @@ def plot_loglog(cp, cd) -> Figure:
     ax.set_title(f"cycle {cp.index}: log-log diagnostic plot with flow-regime slopes",
                  fontsize=10)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, loc="upper left", framealpha=0.85)
+    placer.legend(ax, prefer="upper left", fontsize=7)
     placer.place(fig)
     return fig
 
@@ -100,14 +114,15 @@ def _times_of_interval(cd, pick):
 
 
 def plot_after_closure(cp, cd) -> Figure:
-    """After-closure plot: pressure against Nolte's time function of the regime found, the
-    line (or exponential) fitted over its window, extrapolated to the reservoir pressure
-    with its interval as a band; or why the after-closure flow was not reached."""
+    """After-closure plot: pressure against Nolte's time function of the regime found (time
+    since closure for the exponential), the data window fitted as a band, the line (or
+    exponential) extrapolated to the reservoir pressure with its interval as a band; or why
+    the after-closure flow was not reached."""
     fig, ax = _fig()
     ac = cd.after_closure
     if ac.t.size == 0:
-        ax.text(0.5, 0.5, ac.message, transform=ax.transAxes, ha="center", va="center",
-                fontsize=8, wrap=True)
+        ax.text(0.5, 0.5, "\n".join(textwrap.wrap(ac.message, 90)), transform=ax.transAxes,
+                ha="center", va="center", fontsize=8)
         ax.set_title(f"cycle {cp.index}: after-closure analysis", fontsize=10)
         ax.set_axis_off()
         return fig
@@ -115,6 +130,9 @@ def plot_after_closure(cp, cd) -> Figure:
     if ac.regime == "exponential":
         x = ac.t - ac.t_closure
         ax.plot(x, ac.p / _BAR, ".", ms=2, color="tab:blue", label="after-closure pressure")
+        if ac.window is not None:
+            ax.axvspan(ac.window[0] - ac.t_closure, ac.window[1] - ac.t_closure, **_WINDOW,
+                       label="data window used: exponential fitted")
         tau = ac.slope
         pr = ac.reservoir_pressure
         a = ac.p[0] - pr
@@ -133,8 +151,8 @@ def plot_after_closure(cp, cd) -> Figure:
         ax.plot(F, ac.p / _BAR, ".", ms=2, color="tab:blue", label="after-closure pressure")
         if ac.window is not None and ac.line is not None:
             w = (ac.t >= ac.window[0]) & (ac.t <= ac.window[1])
-            ax.plot(F[w], ac.p[w] / _BAR, ".", ms=3, color="tab:orange",
-                    label=f"{ac.regime} flow: the window fitted")
+            ax.axvspan(float(F[w].min()), float(F[w].max()), **_WINDOW,
+                       label=f"data window used: {ac.regime}-flow line fitted")
             xx = np.linspace(0.0, float(F[w].max()) * 1.1, 50)
             ax.plot(xx, ac.line(xx) / _BAR, "--", color="k",
                     label=f"{ac.regime}-flow line extrapolated to F = 0")
@@ -150,16 +168,13 @@ def plot_after_closure(cp, cd) -> Figure:
         if ac.regime != "exponential":
             ax.set_xlim(left=-0.02 * max(float(np.nanmax(ax.get_xlim())), 1e-9))
     else:
-        ax.text(0.02, 0.03, ac.message, transform=ax.transAxes, fontsize=7.5, wrap=True,
-                va="bottom", bbox=dict(boxstyle="round", fc="white", ec="0.6", alpha=0.9))
+        placer.note(ax, ac.message, prefer="lower left")
     lo, hi = ax.get_ylim()
     ax.set_ylim(lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo))
     ax.set_xlabel(xlabel)
     ax.set_ylabel("pressure [bar]")
     ax.set_title(f"cycle {cp.index}: after-closure analysis", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7.5, loc="upper left" if ac.regime != "exponential" else "upper right",
-              framealpha=0.85)
+    placer.legend(ax, prefer="upper left" if ac.regime != "exponential" else "upper right")
     placer.place(fig)
     return fig
-

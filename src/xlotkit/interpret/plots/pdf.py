@@ -114,6 +114,10 @@ def _stress_lines(stress: Mapping[str, Any] | None, diagnostics) -> list[str]:
         out.append("")
         out.append("Assumptions:")
         out.extend(f"  * {a}" for a in s.get("assumptions", []))
+        if s.get("omitted"):
+            out.append("")
+            out.append("Not estimated, and why:")
+            out.extend(f"  * {o}" for o in s["omitted"])
     if diagnostics is not None:
         out.append("")
         out.append("Shut-in diagnostics:")

@@ -149,13 +149,18 @@ def _draw_line(ax, ln, label: str, color: str, *, xscale=1.0, yscale=1.0, x_rang
             label=label)
 
 
-def _finish(ax, xlabel: str, ylabel: str, title: str, loc: str = "best") -> None:
+def _finish(ax, xlabel: str, ylabel: str, title: str, placer: LabelPlacer | None = None,
+            prefer: str = "upper right", handles=None, labels=None, legend_ax=None) -> None:
+    """Axis labels, title, grid, and the legend queued on ``placer`` (placed clear of the
+    curves of every axes, ``legend_ax`` the one it is drawn on: the top twin)."""
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
-    h, lab = ax.get_legend_handles_labels()
-    if h:
-        ax.legend(fontsize=7.5, loc=loc, framealpha=0.85)
+    if placer is not None:
+        if handles is None:
+            handles, labels = ax.get_legend_handles_labels()
+        placer.legend(legend_ax if legend_ax is not None else ax, handles, labels,
+                      prefer=prefer)
     ax.grid(alpha=0.3)
 
 
@@ -188,11 +193,10 @@ def plot_overview(record_picks: RecordPicks) -> Figure:
     for cp in record_picks.cycles:
         ax.axvspan(cp.cycle.t_start / 60, cp.cycle.t_end / 60,
                    color="0.9" if cp.index % 2 else "0.96", lw=0, zorder=0)
-        # (boxed, so that the label placer keeps clear of it)
-        ax.annotate(f"cycle {cp.index}: {cp.kind}", (cp.cycle.t_start / 60, 1.0),
-                    xycoords=("data", "axes fraction"), va="top", fontsize=7,
-                    xytext=(2, -2), textcoords="offset points",
-                    bbox=dict(boxstyle="square,pad=0.1", fc="none", ec="none"))
+        # Named at the top edge where the cycle starts, placed clear of the curves.
+        placer.add(ax, cp.cycle.t_start / 60, 1.0, f"cycle {cp.index}: {cp.kind}", "k",
+                   fontsize=7, xycoords=("data", "axes fraction"),
+                   directions=(-20, -45, -70, 0))
         for pk in cp.picks:
             if not pk.found or pk.t is None:
                 continue
@@ -284,7 +288,7 @@ def plot_p_v(record: Record, cp: CyclePicks) -> Figure:
                    interval_text(fbp), _COLORS["FBP"])
     _margin(ax)
     _finish(ax, "pumped volume [l]", "pressure [bar]",
-            f"cycle {cp.index}: pressure vs pumped volume", loc="lower right")
+            f"cycle {cp.index}: pressure vs pumped volume", placer, "lower right")
     placer.place(fig)
     return fig
 
@@ -319,7 +323,7 @@ def _closure_marks(ax, placer, cp, c, x, methods, y_of=None):
         col = _METHOD_COLORS.get(m, "tab:green")
         ax.axvline(xm, color=col, ls=":", lw=1)
         placer.add(ax, xm, pk.value / _BAR if y_of is None else y_of(pk),
-                   interval_text(pk, f"FCP ({METHOD_WORDS[m]})"), col)
+                   interval_text(pk, f"FCP by {METHOD_WORDS[m]}"), col)
 
 
 def _consensus_band(ax, cp: CyclePicks) -> None:
@@ -363,8 +367,8 @@ def plot_sqrt_t(record: Record, cp: CyclePicks) -> Figure:
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     _finish(ax, "√(time since pump stop) [√s]", "pressure [bar]",
-            f"cycle {cp.index}: square-root-of-time plot")
-    ax.legend(h1 + h2, l1 + l2, fontsize=7.5, loc="upper right", framealpha=0.85)
+            f"cycle {cp.index}: square-root-of-time plot", placer, "upper right",
+            h1 + h2, l1 + l2, legend_ax=ax2)
     placer.place(fig)
     return fig
 
@@ -405,20 +409,19 @@ def plot_g_function(record: Record, cp: CyclePicks, diagnosis=None) -> Figure:
     if diag is not None and diag.m is not None:
         gg = np.linspace(0.0, float(np.nanmax(G)), 30)
         ax2.plot(gg, diag.m * gg / _BAR, "--", color="k", lw=0.9,
-                 label="straight line through the origin, m·G")
+                 label="line through the origin, tangent at closure")
     ax2.set_ylabel("G·dP/dG and dP/dG [bar]")
     lo, hi = ax2.get_ylim()
     ax2.set_ylim(0.0, hi)
     if diag is not None:
-        ax.text(0.02, 0.03, f"leak-off diagnosis: {diag.words}\n{diag.reason}",
-                transform=ax.transAxes, fontsize=7.5, va="bottom", wrap=True,
-                bbox=dict(boxstyle="round", fc="white", ec="0.6", alpha=0.9))
+        placer.note(ax2, f"leak-off diagnosis: {diag.words}\n{diag.reason}",
+                    prefer="lower right")
     _margin(ax, 0.18)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     _finish(ax, "G-function (Nolte, α = 1)", "pressure [bar]",
-            f"cycle {cp.index}: G-function plot")
-    ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper right", framealpha=0.85)
+            f"cycle {cp.index}: G-function plot", placer, "upper right", h1 + h2, l1 + l2,
+            legend_ax=ax2)
     placer.place(fig)
     return fig
 
@@ -447,11 +450,11 @@ def plot_bilinear(record: Record, cp: CyclePicks) -> Figure:
                     label=lab)
         _vband(ax, pk.low / _BAR, pk.high / _BAR, _METHOD_COLORS["bilinear"],
                _band_label(pk))
-        placer.add(ax, x0 / _BAR, y0 / _BAR * 60, interval_text(pk, "FCP (bilinear)"),
+        placer.add(ax, x0 / _BAR, y0 / _BAR * 60, interval_text(pk, "FCP by bilinear dp/dt-p"),
                    _METHOD_COLORS["bilinear"])
     _margin(ax)
     _finish(ax, "pressure [bar]", "dp/dt [bar/min]",
-            f"cycle {cp.index}: bilinear pressure-decay-rate plot")
+            f"cycle {cp.index}: bilinear pressure-decay-rate plot", placer)
     placer.place(fig)
     return fig
 
@@ -502,10 +505,10 @@ def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
         placer.add(ax, tc, yc, interval_text(pk, f"FCP ({record.reference.kind})"),
                    "tab:green")
     elif pk is not None:
-        _no_data(ax, pk.message[:90])
+        placer.note(ax, f"closure not found: {pk.message[:200]}")
     _margin(ax)
     _finish(ax, "time since flowback start [s]", "√(choke pressure) [√bar]",
-            f"cycle {cp.index}: flowback through a fixed choke", loc="upper right")
+            f"cycle {cp.index}: flowback through a fixed choke", placer)
     placer.place(fig)
     return fig
 
@@ -547,10 +550,10 @@ def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
         placer.add(ax, pk.details["volume_closure"] * 1000, pk.value / _BAR,
                    interval_text(pk), "tab:green")
     elif pk is not None:
-        _no_data(ax, pk.message[:90])
+        placer.note(ax, f"closure not found: {pk.message[:200]}")
     _margin(ax)
     _finish(ax, "returned volume [l]", f"pressure [bar] ({record.reference.kind})",
-            f"cycle {cp.index}: pressure vs returned volume", loc="upper right")
+            f"cycle {cp.index}: pressure vs returned volume", placer)
     placer.place(fig)
     return fig
 
