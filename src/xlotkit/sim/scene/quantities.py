@@ -42,7 +42,7 @@ def quantity(value: Any, dim: str, key: str) -> float:
     num, unit = float(m.group(1)), m.group(2)
     if not unit:
         return num
-    pu = parse_unit(unit, key=key)
+    pu = parse_unit(unit, key=key, exact_case=True)
     if pu.dimensionality != registry().Unit(dim).dimensionality:
         raise InputError(f"unit {unit!r} has the wrong dimension", key=key,
                          expected=f"a unit of the dimension of {dim}")
