@@ -63,13 +63,14 @@ def test_to_toml_round_trip():
 
 
 def test_defaults_and_units():
-    sc = scene_from_dict(_scene(rock={"permeability": "2 mD", "friction_angle": "0.5 rad"},
+    sc = scene_from_dict(_scene(rock={"permeability": "2 mD"},
                                 completion={"depth": "1500 m"}, fluid={"viscosity": "1 cP"}))
     assert sc.rock.permeability == pytest.approx(2 * 9.869233e-16)
-    assert sc.rock.friction_angle == pytest.approx(np.degrees(0.5))
     assert sc.completion_model().length_md == 1500.0
     assert sc.fluid.viscosity == pytest.approx(1e-3)
     assert sc.stresses == Stresses() and sc.resolved_model == "lumped"
+    sc = scene_from_dict(_scene(model="mdem", rock={"friction_angle": "0.5 rad"}))
+    assert sc.rock.friction_angle == pytest.approx(np.degrees(0.5))
 
 
 @pytest.mark.parametrize("sections, key, value, allowed", [
@@ -77,8 +78,8 @@ def test_defaults_and_units():
      "[0, 1e-09] m^2"),
     ({"rock": {"poisson_ratio": 0.5}}, "rock.poisson_ratio", "0.5", "[0, 0.5)"),
     ({"geometry": {"hole_radius": "-1 m"}}, "geometry.hole_radius", "'-1 m'",
-     "[0.01, 2] m"),
-    ({"output": {"noise": "-1 bar"}}, "output.noise", "'-1 bar'", "[0, 1e+07] Pa"),
+     "[0.02, 0.6] m"),
+    ({"output": {"noise": "-1 bar"}}, "output.noise", "'-1 bar'", "[0, 1e+06] Pa"),
     ({"numerics": {"checkpoint_steps": 0}}, "numerics.checkpoint_steps", "0",
      "[1, 1e+09]"),
     ({"stresses": {"sigma_H": "20 MPa"}}, "stresses.sigma_H", "'20 MPa'", ">= sigma_h"),
@@ -159,14 +160,17 @@ def test_auto_model_picks_mdem_for_2d_physics(sections, reason):
 
 
 def test_auto_model_picks_lumped_without_2d_physics():
-    sc = scene_from_dict(_scene(effects={"pipe_friction": True, "well_storage": False},
-                                rock={"heterogeneity": 0.5}))
+    sc = scene_from_dict(_scene(effects={"pipe_friction": True, "well_storage": False}))
     assert sc.resolved_model == "lumped" and sc.two_d_reasons == ()
     ls = sc.to_lumped()
     assert ls.pipe_friction
     # without well storage only the open hole stores fluid
     oh = np.pi * 0.15**2 * 10.0 * sc.fluid.compressibility
     assert ls.c_well == pytest.approx(oh)
+    # a 2D key without its effect does not ask for the 2D model: it is refused, not ignored
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(rock={"heterogeneity": 0.5}), file="s.toml")
+    assert ei.value.key == "rock.heterogeneity" and "effects.heterogeneity" in str(ei.value)
 
 
 def test_leakoff_derived_from_the_rock():
@@ -182,7 +186,8 @@ def test_leakoff_derived_from_the_rock():
 
 
 def test_seeds_default_to_the_master_seed_and_with_seed_overrides():
-    sc = scene_from_dict(_scene(seed=5, output={"seed": 9}))
+    sc = scene_from_dict(_scene(seed=5, output={"seed": 9, "noise": "0.05 bar"},
+                                mesh={"jitter": 0.1}, effects={"heterogeneity": True}))
     assert (sc.mesh_seed, sc.rock_seed, sc.noise_seed) == (5, 5, 9)
     s2 = sc.with_seed(11)
     assert (s2.mesh_seed, s2.rock_seed, s2.noise_seed) == (11, 11, 11)
