@@ -567,8 +567,18 @@ def simulate_cmd(scene_file: str, out: str, resume: bool, seed: int | None) -> N
                 bar.set_postfix_str(msg, refresh=False)
                 bar.update(n - bar.n)
 
+        def started(folder, redirected: bool) -> None:
+            # named now, not only at the end: a user who stops the run must know where
+            if redirected:
+                bar.write(f"{out} holds earlier results; this run writes to {folder}",
+                          file=sys.stderr)
+            elif resume:
+                bar.write(f"resuming the run in {folder}", file=sys.stderr)
+            else:
+                bar.write(f"results in {folder}", file=sys.stderr)
+
         try:
-            res = simulate(scene, out, resume=resume, progress=progress)
+            res = simulate(scene, out, resume=resume, progress=progress, started=started)
         except SimulationInterrupted as exc:
             bar.close()
             seed_opt = "" if seed is None else f" --seed {seed}"

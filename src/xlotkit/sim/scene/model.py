@@ -261,6 +261,14 @@ class Scene:
             return self.model
         return "mdem" if self.two_d_reasons else "lumped"
 
+    def as_monolithic(self) -> Scene:
+        """The same scene with the well coupled monolithically (the 2D segment a
+        partitioned engine steps): ``coupling = "monolithic"``, no ``[well_coupling]``."""
+        return dataclasses.replace(
+            self, coupling="monolithic", well_coupling=WellCouplingOptions(),
+            given=frozenset(k for k in self.given
+                            if k != "coupling" and not k.startswith("well_coupling")))
+
     # ------------------------------------------------------------------ seeds
     @property
     def mesh_seed(self) -> int:
