@@ -86,6 +86,26 @@ CONDITIONS: dict[str, Condition] = {
         "effects.heterogeneity, without their own seed)"),
     "coupling": Condition(_two_d, _2D),
     "geometry.domain_size": Condition(_generated, _GEN),
+    "geometry.segment_height": Condition(
+        lambda sc: _two_d(sc) or sc.lumped.fracture_geometry == "kgd",
+        "the 2D model, or lumped.fracture_geometry = 'kgd' (a penny-shaped fracture has "
+        "no height)"),
+    "completion.depth": Condition(
+        lambda sc: sc.completion.tvd is None or _storage_from_completion(sc)
+        or sc.effects.pipe_friction,
+        "no completion.tvd (which sets the hydrostatic column), or a well whose storage "
+        "comes from the completion, or effects.pipe_friction"),
+    **{f"completion.{k}": Condition(
+        lambda sc: _storage_from_completion(sc) or sc.effects.pipe_friction,
+        "a well whose storage comes from the completion (effects.well_storage without "
+        "completion.well_compliance), or effects.pipe_friction")
+       for k in ("casing_id", "pipe_od", "pipe_id")},
+    "completion.open_hole_length": Condition(
+        lambda sc: _storage_from_completion(sc)
+        or (_lumped(sc) and (sc.lumped.wall_leak_index is None
+                             or not sc.effects.well_storage)),
+        "a well whose storage comes from the completion, or a lumped model without "
+        "lumped.wall_leak_index or without well storage (the open hole's alone)"),
     **{f"mesh.{k}": Condition(_generated, _GEN)
        for k in ("growth", "wall_element_size", "max_element_size", "fracture_band",
                  "jitter")},

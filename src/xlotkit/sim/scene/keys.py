@@ -145,9 +145,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "band_element_size": _k(_L, "m", 0.0, 1.0, lo_open=True, optional=True,
                                 doc="edge length in the band (default wall_element_size; "
                                     "at most max_element_size)"),
-        "band_length": _k(_L, "m", 0.0, 1e4, lo_open=True,
+        "band_length": _k(_L, "m", 0.0, 1e4, lo_open=True, optional=True,
                           doc="half-length of the band from the hole centre (beyond the "
-                              "hole, within the domain: at most domain_size / 2)"),
+                              "hole, within the domain: at most domain_size / 2; default "
+                              "10 m or domain_size / 2 if less)"),
         "band_strip": _k("bool", doc="lay a crack strip along the band axis: two staggered "
                                      "node rows, every strip triangle straddling the axis "
                                      "(only they are band clusters)"),

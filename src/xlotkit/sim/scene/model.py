@@ -31,7 +31,10 @@ from xlotkit.sim.scene.sections import (
 from xlotkit.sim.schedule import Schedule
 from xlotkit.sim.well import Completion, well_compliance
 
-__all__ = ["Scene", "carter_coefficient"]
+__all__ = ["BAND_LENGTH", "Scene", "carter_coefficient"]
+
+#: Default half-length of the fracture band [m] (or the domain's half-side if less).
+BAND_LENGTH = 10.0
 
 #: Combined Carter coefficient of the rock (:func:`xlotkit.formulas.carter_coefficient`).
 carter_coefficient = formulas.carter_coefficient
@@ -164,9 +167,9 @@ class Scene:
             return
         h_band = mo.band_element_size if mo.band_element_size is not None else h_wall
         half = 0.5 * size
-        if not r < mo.band_length <= half * (1.0 + 1e-12):
+        if not r < self.band_length <= half * (1.0 + 1e-12):
             raise InputError(
-                f"value {mo.band_length!r} m does not fit between the hole ({r:g} m) and the "
+                f"value {self.band_length!r} m does not fit between the hole ({r:g} m) and the "
                 f"domain's edge ({half:g} m from the hole centre: domain_size {size:g} m)",
                 key="mesh.band_length",
                 expected=f"a number in ({r:g}, {half:g}] m (or a larger geometry.domain_size)")
@@ -186,6 +189,14 @@ class Scene:
                 f"({h_band:g} m)", key="mesh.band_width",
                 expected=f"a number in [{h_band:g}, {half:g}] m (or a smaller "
                          f"mesh.band_element_size)")
+
+    @property
+    def band_length(self) -> float:
+        """Half-length of the fracture band [m]: ``mesh.band_length``, by default 10 m or
+        the domain's half-side if less."""
+        if self.mesh.band_length is not None:
+            return float(self.mesh.band_length)
+        return min(BAND_LENGTH, 0.5 * self.geometry.domain_size)
 
     def _check_well_compliance(self) -> None:
         """A given well compliance holds the open hole's own fluid storage, so it cannot

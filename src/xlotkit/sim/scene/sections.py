@@ -124,7 +124,7 @@ class MeshOptions:
     fracture_band: bool = False
     band_width: float = 1.0
     band_element_size: float | None = None
-    band_length: float = 10.0
+    band_length: float | None = None
     band_strip: bool = False
     jitter: float = 0.0
     seed: int | None = None
