@@ -522,7 +522,15 @@ def demo_cmd(out: str, seed: int, noise: float, model: str) -> None:
             bar.set_description(f"demo: {msg}")
             bar.update(max(0, int(round(100 * frac)) - bar.n))
 
-        res = run_demo(out, model=model, seed=seed, noise_bar=noise, progress=progress)
+        def started(folder) -> None:
+            from pathlib import Path
+
+            where = (f"{out} holds earlier results; the demo writes to {folder}"
+                     if Path(folder) != Path(out) else f"results in {folder}")
+            bar.write(where, file=sys.stderr)
+
+        res = run_demo(out, model=model, seed=seed, noise_bar=noise, progress=progress,
+                       started=started)
     click.echo(res.summary)
     click.echo(f"results in {res.out_dir}")
 

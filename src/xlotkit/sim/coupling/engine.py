@@ -403,7 +403,11 @@ class MDEMEngine:
                 self._end_phase(why)
                 return self._outcome(True, self.time, "phase end at start: " + why)
             return self._outcome(True, self.time, "phase start")
-        return self._trial()
+        # a wild Newton iterate may overflow rho(p) = exp(c_f p) or the column: the Newton
+        # checks every residual for finite values and backs off, so numpy's warnings of
+        # those trials are noise on the user's terminal
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return self._trial()
 
     def _trial(self) -> StepOutcome:
         num = self.scene.numerics
