@@ -128,7 +128,7 @@ PROBES: dict[str, Probe] = {
     "model": Probe("mdem", live=LUMPED, observe="engine", other="lumped",
                    refused_as=("mesh",)),
     "coupling": Probe("wfd", live=TWO_D),
-    "seed": Probe(5, with_=_NOISE, observe="run"),
+    "seed": Probe(5, with_=_NOISE, observe="run"),      # without draws: recorded only
     "geometry.domain_size": Probe("4 m", live=TWO_D),
     "geometry.hole_radius": Probe("0.12 m"),
     "geometry.segment_height": Probe("6 m",
@@ -358,6 +358,7 @@ def _run_parts(scene: Scene, out: Path) -> dict[str, str]:
         "truth": json.dumps(_simulated(r.truth), sort_keys=True, default=str),
         "checkpoints": repr(saves),
         "snapshots": repr(sorted(p.name for p in out.glob("snapshots/*.vtu"))),
+        "summary": (out / "summary.json").read_text(),
     }
 
 

@@ -42,6 +42,8 @@ Layout of the package (configuration: it imports no engine)
 * :mod:`~xlotkit.sim.scene.lumped` -- :class:`LumpedScene`, the lumped model's own
   configuration, and the older lumped file layout;
 * :mod:`~xlotkit.sim.scene.model` -- :class:`Scene`;
+* :mod:`~xlotkit.sim.scene.applies` -- which keys each model reads (a key set where it
+  is not read is refused);
 * :mod:`~xlotkit.sim.scene.io` -- :func:`load_scene`, :func:`scene_from_dict`,
   :func:`standard_2d_scene`; :mod:`~xlotkit.sim.scene.reference` -- the key tables.
 

@@ -78,12 +78,6 @@ _WFD = "coupling = 'wfd' or 'wfdmod' (the 2D model)"
 
 #: dotted key -> when it is read (keys absent here are read by every scene).
 CONDITIONS: dict[str, Condition] = {
-    "seed": Condition(
-        lambda sc: (sc.output.noise > 0.0 and sc.output.seed is None)
-        or (_generated(sc) and sc.mesh.jitter > 0.0 and sc.mesh.seed is None)
-        or (_two_d(sc) and sc.effects.heterogeneity and sc.rock.seed is None),
-        "a random draw that takes the master seed (output.noise > 0, mesh.jitter > 0 or "
-        "effects.heterogeneity, without their own seed)"),
     "coupling": Condition(_two_d, _2D),
     "geometry.domain_size": Condition(_generated, _GEN),
     "geometry.segment_height": Condition(
@@ -198,8 +192,8 @@ def _default(scene: Scene, key: str) -> Any:
 
 def set_keys(scene: Scene) -> list[str]:
     """The dotted keys set in a scene, in :data:`SCENE_KEYS` order: given in its file
-    (``scene.given``), or different from their default. The master ``seed`` counts only
-    when given in the file (:meth:`Scene.with_seed` sets it for every scene)."""
+    (``scene.given``), or different from their default. (The master ``seed`` is read by
+    every scene: it seeds whatever draws the scene has and is recorded in the outputs.)"""
     out = []
     for sec, keys in SCENE_KEYS.items():
         for k in keys:
