@@ -202,3 +202,18 @@ def test_standard_2d_demo_recovers_the_realised_sigma_h(tmp_path):
     assert c1["fbp_bar"] > c1["fpp_bar"] > truth["sigma_h_realised"]
     assert c1["fbp_bar"] > c1["isip_bar"] > truth["sigma_h_realised"]
     assert c1["fbp_bar"] == pytest.approx(truth["fbp"], abs=2.0)    # 1 s sampling, 2 bar
+
+
+def test_a_redirected_demo_names_its_folder_when_it_starts(tmp_path):
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "earlier.txt").write_text("kept")
+    seen = []
+    from xlotkit.pipeline import run_demo
+
+    res = run_demo(out, model="lumped", started=seen.append)
+    assert seen == [res.out_dir] and res.out_dir != out and (out / "earlier.txt").exists()
+    r = CliRunner().invoke(main, ["demo", "--model", "lumped", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    text = r.output + (r.stderr if hasattr(r, "stderr") and r.stderr_bytes is not None else "")
+    assert f"{out} holds earlier results; the demo writes to {out}-" in text

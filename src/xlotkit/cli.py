@@ -530,7 +530,15 @@ def demo_cmd(out: str, seed: int, noise: float, model: str) -> None:
             bar.set_description(f"demo: {msg}")
             bar.update(max(0, int(round(100 * frac)) - bar.n))
 
-        res = run_demo(out, model=model, seed=seed, noise_bar=noise, progress=progress)
+        def started(folder) -> None:
+            from pathlib import Path
+
+            where = (f"{out} holds earlier results; the demo writes to {folder}"
+                     if Path(folder) != Path(out) else f"results in {folder}")
+            bar.write(where, file=sys.stderr)
+
+        res = run_demo(out, model=model, seed=seed, noise_bar=noise, progress=progress,
+                       started=started)
     click.echo(res.summary)
     click.echo(f"results in {res.out_dir}")
 
@@ -575,8 +583,18 @@ def simulate_cmd(scene_file: str, out: str, resume: bool, seed: int | None) -> N
                 bar.set_postfix_str(msg, refresh=False)
                 bar.update(n - bar.n)
 
+        def started(folder, redirected: bool) -> None:
+            # named now, not only at the end: a user who stops the run must know where
+            if redirected:
+                bar.write(f"{out} holds earlier results; this run writes to {folder}",
+                          file=sys.stderr)
+            elif resume:
+                bar.write(f"resuming the run in {folder}", file=sys.stderr)
+            else:
+                bar.write(f"results in {folder}", file=sys.stderr)
+
         try:
-            res = simulate(scene, out, resume=resume, progress=progress)
+            res = simulate(scene, out, resume=resume, progress=progress, started=started)
         except SimulationInterrupted as exc:
             bar.close()
             seed_opt = "" if seed is None else f" --seed {seed}"

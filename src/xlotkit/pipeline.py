@@ -136,7 +136,7 @@ DEMO_MODELS = ("2d", "lumped")
 
 def run_demo(out_dir: str | Path, *, model: str = "2d", seed: int = 0,
              noise_bar: float = 0.05, progress: Progress | None = None,
-             scene: Any = None) -> DemoResult:
+             scene: Any = None, started: Callable[[Path], None] | None = None) -> DemoResult:
     """Simulate a two-cycle XLOT, write it as a field log, read it back, pick, report.
 
     ``model="2d"`` (default) simulates the standard 2D scene
@@ -166,6 +166,9 @@ def run_demo(out_dir: str | Path, *, model: str = "2d", seed: int = 0,
     scene : Scene, optional
         A 2D scene to run instead of the standard one (its noise and seed are replaced
         by ``noise_bar`` and ``seed``); used by tests for a short variant.
+    started : callable, optional
+        ``started(folder)`` with the results folder (``out_dir`` or a fresh sibling)
+        before the simulation starts.
 
     Returns
     -------
@@ -183,6 +186,8 @@ def run_demo(out_dir: str | Path, *, model: str = "2d", seed: int = 0,
             progress(f, msg)
 
     target = new_output_dir(out_dir)
+    if started is not None:
+        started(target)
     if model == "lumped":
         from xlotkit.sim.lumped import simulate_lumped, standard_lumped_scene
 

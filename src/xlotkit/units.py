@@ -101,6 +101,8 @@ _ALIASES = {
     "psi": "psi",
     "bar": "bar",
     "pascal": "Pa",
+    # viscosity (pint's "cp" is a cup)
+    "cp": "centipoise",
     # rates
     "m3/d": "m**3/day",
     "m³/min": "m**3/min",
@@ -294,10 +296,19 @@ class ParsedUnit:
 
 
 def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
-               key: str | None = None) -> ParsedUnit:
-    """Understand a unit as written in a log (see :func:`_parse_unit`); cached."""
+               key: str | None = None, exact_case: bool = False) -> ParsedUnit:
+    """Understand a unit as written in a log (see :func:`_parse_unit`); cached.
+
+    ``exact_case=True`` (scene files, where a unit is typed by hand and its case is the
+    only difference between a millipascal and a megapascal) refuses a spelling that the
+    field-spelling table reads differently from what its case says in SI: ``"mPa"``
+    (millipascal as written, megapascal as a log's ``mpa``), ``"Mbar"``.
+    """
     try:
-        return _parse_unit_cached(text)
+        pu = _parse_unit_cached(text)
+        if exact_case:
+            _check_case(text, pu)
+        return pu
     except InputError as exc:
         raise InputError(exc.message, file=file, line=line, key=key,
                          expected=exc.expected) from None
@@ -306,6 +317,42 @@ def parse_unit(text: str, *, file: str | None = None, line: int | None = None,
 @lru_cache(maxsize=512)
 def _parse_unit_cached(text: str) -> ParsedUnit:
     return _parse_unit(text)
+
+
+@lru_cache(maxsize=512)
+def _literal_scale(text: str) -> tuple[float, object] | None:
+    """``(SI scale, dimensionality)`` of ``text`` read by pint exactly as written, or None
+    when pint does not know the spelling."""
+    ureg = registry()
+    try:
+        q = ureg.Quantity(1.0, text).to_base_units()
+    except Exception:  # noqa: BLE001 -- pint raises many kinds on an unknown spelling
+        return None
+    return float(q.magnitude), q.dimensionality
+
+
+def _check_case(text: str, pu: ParsedUnit) -> None:
+    """Refuse a unit whose case says one SI unit and whose field spelling another."""
+    s = re.sub(r"\b(absolute|abs|gauge|gage)\b", "", text, flags=re.IGNORECASE)
+    s = s.strip().strip("[]()").strip()
+    if not s or s == pu.expr:
+        return
+    lit = _literal_scale(s)
+    if lit is None or pu.expr == "dimensionless":
+        return
+    scale, dim = lit
+    if dim != pu.dimensionality:
+        return           # e.g. "h" (Planck's constant to pint, an hour here): no doubt
+    ours = _si_affine(pu.expr)[0]
+    if abs(scale - ours) <= 1e-9 * max(abs(scale), abs(ours)):
+        return
+    ureg = registry()
+    as_written, meant = str(ureg.Unit(s)), str(ureg.Unit(pu.expr))
+    symbol = f"{ureg.Unit(pu.expr):~}"
+    raise InputError(
+        f"unit {s!r} is ambiguous: in SI case it is {as_written}, as field logs write it "
+        f"{meant}",
+        expected=f"'{symbol}' for {meant} (the SI case), or the unit's full name")
 
 
 def _parse_unit(text: str, *, file: str | None = None, line: int | None = None,

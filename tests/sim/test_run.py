@@ -342,3 +342,174 @@ def test_surface_gauge_log(standard, standard_run, tmp_path):
     with pytest.raises(InputError, match="output.gauge"):
         scene_from_dict({"output": {"gauge": "pump"}, "schedule": {"phase": [
             {"kind": "pump", "rate": "500 l/min", "duration": "30 s"}]}})
+
+
+# ----------------------------------------------------------------------------- issue 17
+def _count_checkpoints(monkeypatch):
+    saves = []
+    real = run_mod.driver._save_checkpoint
+
+    def counting(path, engine, drv):
+        saves.append(engine.time)
+        real(path, engine, drv)
+
+    monkeypatch.setattr(run_mod.driver, "_save_checkpoint", counting)
+    return saves
+
+
+def test_checkpoints_at_the_start_and_at_every_phase_end(standard, tmp_path, monkeypatch):
+    """Besides every checkpoint_steps steps and checkpoint_seconds of wall time (default
+    10 s), the driver checkpoints when the run starts and when a phase ends."""
+    from xlotkit.sim.scene import Numerics
+
+    assert Numerics().checkpoint_seconds == 10.0
+    saves = _count_checkpoints(monkeypatch)
+    sc = _with(standard, "numerics", checkpoint_steps=10**9, checkpoint_seconds=86400.0)
+    simulate(sc, tmp_path / "ck")
+    assert saves[0] == 0.0 and len(saves) == 1 + sc.schedule.n_phases
+    assert saves == sorted(set(saves))                 # one per phase end, in order
+
+
+def test_an_interruption_leaves_a_checkpoint_of_its_last_step(standard, standard_run, tmp_path):
+    """Ctrl-C (here: the progress callback) writes a checkpoint of the state after the last
+    whole step, so the resume takes up exactly there, and the result is the same."""
+    sc = _with(standard, "numerics", checkpoint_steps=10**9, checkpoint_seconds=86400.0)
+    out = tmp_path / "r"
+    seen = {"n": 0}
+
+    def stop(frac, msg):
+        seen["n"] += 1
+        if seen["n"] == 5:              # before any phase has ended: only the start's
+            raise KeyboardInterrupt
+
+    with pytest.raises(SimulationInterrupted) as ei:
+        simulate(sc, out, progress=stop)
+    assert ei.value.has_checkpoint
+    r = simulate(sc, out, resume=True)
+    assert r.resumed and r.n_steps == standard_run.n_steps
+    assert np.array_equal(r.record.pressure, standard_run.record.pressure)
+
+
+def _storage_scene():
+    sc = load_scene(ROOT / "examples" / "scene_2d_heterogeneous.toml")
+    return _with(sc, "output", snapshot_interval=5.0, log_interval=2.0)
+
+
+def _series(folder: Path) -> tuple[list[str], str]:
+    return (sorted(p.name for p in (folder / "snapshots").glob("*.vtu")),
+            (folder / "fields.pvd").read_text())
+
+
+def test_resume_with_snapshots_continues_the_series(tmp_path, monkeypatch):
+    """A run with snapshots killed after its last checkpoint (snapshots written since) and
+    one killed before any: --resume continues both to the series of an uninterrupted run,
+    without duplicates (before issue 17 the folder's snapshots/ made the resume refuse)."""
+    monkeypatch.setitem(run_mod.ENGINES, "mdem", _StorageEngine)
+    sc = _with(_storage_scene(), "numerics", checkpoint_steps=10)
+    ref = simulate(sc, tmp_path / "ref")
+    want = _series(ref.paths["dir"])
+    assert len(want[0]) == 9                          # t = 0, 5, ..., 40
+
+    class Killed(BaseException):
+        """Not a KeyboardInterrupt: the driver writes nothing more (as under SIGKILL)."""
+
+    def kill_at(n):
+        seen = {"n": 0}
+
+        def progress(frac, msg):
+            seen["n"] += 1
+            if seen["n"] == n:
+                raise Killed
+        return progress
+
+    out = tmp_path / "killed"
+    with pytest.raises(Killed):
+        simulate(sc, out, progress=kill_at(27))       # checkpoint at step 20, snaps to 25
+    assert len(list((out / "snapshots").glob("*.vtu"))) == 6
+    r = simulate(sc, out, resume=True)
+    assert r.resumed and _series(out) == want
+    assert np.array_equal(r.record.pressure, ref.record.pressure)
+
+    out2 = tmp_path / "early"
+    with pytest.raises(Killed):
+        simulate(sc, out2, progress=kill_at(12))
+    (out2 / "checkpoint.npz").unlink()                # killed before its first checkpoint
+    assert (out2 / "snapshots").is_dir() and (out2 / "fields.pvd").is_file()
+    r2 = simulate(sc, out2, resume=True)
+    assert not r2.resumed and r2.paths["dir"] == out2 and _series(out2) == want
+    with pytest.raises(InputError, match="differs"):  # another scene's folder: refused
+        out3 = tmp_path / "other"
+        with pytest.raises(Killed):
+            simulate(sc, out3, progress=kill_at(3))
+        (out3 / "checkpoint.npz").unlink()
+        simulate(_with(sc, "rock", tensile_strength=4e6), out3, resume=True)
+
+
+def test_a_redirected_run_names_its_folder_when_it_starts(standard, standard_run, tmp_path):
+    calls = []
+    full = standard_run.paths["dir"]
+
+    def started(folder, redirected):
+        calls.append((folder, redirected, (folder / "summary.json").exists()))
+
+    r = simulate(standard, full, started=started)
+    assert calls == [(r.paths["dir"], True, False)] and r.paths["dir"] != full
+    assert r.paths["dir"].name.startswith(full.name + "-")
+    calls.clear()
+    simulate(standard, tmp_path / "new", started=started)
+    assert calls == [(tmp_path / "new", False, False)]
+
+
+def test_cli_names_the_redirected_folder(tmp_path):
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(STANDARD.read_text())
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / "earlier.txt").write_text("results of another run")
+    exe = str(Path(sys.executable).with_name("xlotkit"))
+    res = subprocess.run([exe, "simulate", str(scene_file), "--out", str(out)],
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert f"{out} holds earlier results; this run writes to {out}-2" in res.stderr
+    assert (out / "earlier.txt").read_text() == "results of another run"
+
+
+class _FailingEngine(_StorageEngine):
+    """Fails at its 25th step (phase 2 of the scene below) with ``error``."""
+
+    error: Exception = RuntimeError("x")
+
+    def step(self):
+        if self.k == 24:
+            raise type(self).error
+        super().step()
+        reason = {1: "phase start", 20: "phase end: duration", 21: "phase start"}.get(
+            self.k, "accepted")
+        return StepOutcome(True, self.time, reason)
+
+
+def _failing_scene():
+    sc = _storage_scene()
+    from xlotkit.sim.schedule import Pump, Schedule, ShutIn
+
+    return dataclasses.replace(sc, schedule=Schedule((Pump(rate=1e-3, duration=20.0),
+                                                      ShutIn(duration=20.0))))
+
+
+@pytest.mark.parametrize("error, key", [
+    (run_mod.driver.XlotkitError("2D step of 1e-05 s at t = 24 s failed at the floor "
+                                 "numerics.dt_min = 1e-05 s"), "numerics.dt_min"),
+    (run_mod.driver.InputError("fluid column has no finite solution", key="column"),
+     "fluid.compressibility"),
+    (RuntimeError("pressure did not bracket"), "numerics.dt_max"),
+])
+def test_a_run_failing_part_way_names_time_phase_and_key(tmp_path, monkeypatch, error, key):
+    monkeypatch.setitem(run_mod.ENGINES, "mdem", _FailingEngine)
+    monkeypatch.setattr(_FailingEngine, "error", error)
+    sc = _failing_scene()
+    with pytest.raises(InputError) as ei:
+        simulate(sc, tmp_path / "f")
+    e = ei.value
+    assert e.key == key and e.file == sc.source_file
+    assert "the run failed at t = 24.000 s, in phase 2 (cycle 1, shut_in" in e.message
+    assert str(error).split(":")[-1].strip() in e.message

@@ -63,13 +63,14 @@ def test_to_toml_round_trip():
 
 
 def test_defaults_and_units():
-    sc = scene_from_dict(_scene(rock={"permeability": "2 mD", "friction_angle": "0.5 rad"},
+    sc = scene_from_dict(_scene(rock={"permeability": "2 mD"},
                                 completion={"depth": "1500 m"}, fluid={"viscosity": "1 cP"}))
     assert sc.rock.permeability == pytest.approx(2 * 9.869233e-16)
-    assert sc.rock.friction_angle == pytest.approx(np.degrees(0.5))
     assert sc.completion_model().length_md == 1500.0
     assert sc.fluid.viscosity == pytest.approx(1e-3)
     assert sc.stresses == Stresses() and sc.resolved_model == "lumped"
+    sc = scene_from_dict(_scene(model="mdem", rock={"friction_angle": "0.5 rad"}))
+    assert sc.rock.friction_angle == pytest.approx(np.degrees(0.5))
 
 
 @pytest.mark.parametrize("sections, key, value, allowed", [
@@ -77,8 +78,8 @@ def test_defaults_and_units():
      "[0, 1e-09] m^2"),
     ({"rock": {"poisson_ratio": 0.5}}, "rock.poisson_ratio", "0.5", "[0, 0.5)"),
     ({"geometry": {"hole_radius": "-1 m"}}, "geometry.hole_radius", "'-1 m'",
-     "[0.01, 2] m"),
-    ({"output": {"noise": "-1 bar"}}, "output.noise", "'-1 bar'", "[0, 1e+07] Pa"),
+     "[0.02, 0.6] m"),
+    ({"output": {"noise": "-1 bar"}}, "output.noise", "'-1 bar'", "[0, 1e+06] Pa"),
     ({"numerics": {"checkpoint_steps": 0}}, "numerics.checkpoint_steps", "0",
      "[1, 1e+09]"),
     ({"stresses": {"sigma_H": "20 MPa"}}, "stresses.sigma_H", "'20 MPa'", ">= sigma_h"),
@@ -159,14 +160,17 @@ def test_auto_model_picks_mdem_for_2d_physics(sections, reason):
 
 
 def test_auto_model_picks_lumped_without_2d_physics():
-    sc = scene_from_dict(_scene(effects={"pipe_friction": True, "well_storage": False},
-                                rock={"heterogeneity": 0.5}))
+    sc = scene_from_dict(_scene(effects={"pipe_friction": True, "well_storage": False}))
     assert sc.resolved_model == "lumped" and sc.two_d_reasons == ()
     ls = sc.to_lumped()
     assert ls.pipe_friction
     # without well storage only the open hole stores fluid
     oh = np.pi * 0.15**2 * 10.0 * sc.fluid.compressibility
     assert ls.c_well == pytest.approx(oh)
+    # a 2D key without its effect does not ask for the 2D model: it is refused, not ignored
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(_scene(rock={"heterogeneity": 0.5}), file="s.toml")
+    assert ei.value.key == "rock.heterogeneity" and "effects.heterogeneity" in str(ei.value)
 
 
 def test_leakoff_derived_from_the_rock():
@@ -182,7 +186,8 @@ def test_leakoff_derived_from_the_rock():
 
 
 def test_seeds_default_to_the_master_seed_and_with_seed_overrides():
-    sc = scene_from_dict(_scene(seed=5, output={"seed": 9}))
+    sc = scene_from_dict(_scene(seed=5, output={"seed": 9, "noise": "0.05 bar"},
+                                mesh={"jitter": 0.1}, effects={"heterogeneity": True}))
     assert (sc.mesh_seed, sc.rock_seed, sc.noise_seed) == (5, 5, 9)
     s2 = sc.with_seed(11)
     assert (s2.mesh_seed, s2.rock_seed, s2.noise_seed) == (11, 11, 11)
@@ -248,3 +253,130 @@ def test_dilation_angle_reaches_the_model():
     assert model.dilation_angle == pytest.approx(np.radians(8.0), rel=1e-12)
     model_off, _ = build_model(scene_from_dict(_scene(mesh={"growth": 1.3})))
     assert model_off.dilation_angle is None
+
+
+# ----------------------------------------------------------------------------- issue 17
+def _error(sections=None, schedule=None, file="s.toml") -> InputError:
+    d = _scene(**(sections or {}))
+    if schedule is not None:
+        d["schedule"] = schedule
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(d, file=file)
+    e = ei.value
+    assert e.file == file and str(e).startswith(f"{file}: {e.key}: ") and e.expected
+    return e
+
+
+@pytest.mark.parametrize("value", ["3 mPa", "3 Mbar"])
+def test_a_unit_whose_case_decides_is_refused(value):
+    """'3 mPa' is a millipascal in SI case and a megapascal as field logs write 'mpa': it
+    was read as 3 MPa; now refused as ambiguous, naming the key, the value and the range."""
+    e = _error({"rock": {"tensile_strength": value}})
+    assert e.key == "rock.tensile_strength" and "ambiguous" in e.message
+    assert repr(value) in e.message and "[1000, 1e+08] Pa" in e.expected
+    assert scene_from_dict(_scene(rock={"tensile_strength": "3 MPa"})).rock.tensile_strength \
+        == 3e6
+    assert scene_from_dict(_scene(rock={"tensile_strength": "3 mpa"})).rock.tensile_strength \
+        == 3e6                                           # a field spelling, unambiguous
+    e = _error({"rock": {"permeability": "1 MD"}})
+    assert e.key == "rock.permeability" and "ambiguous" in e.message
+
+
+def test_an_implausible_strength_is_refused():
+    e = _error({"rock": {"tensile_strength": 0.003}})
+    assert e.key == "rock.tensile_strength" and "without a unit is SI: Pa" in e.message
+    assert scene_from_dict(_scene(rock={"tensile_strength": 0})).rock.tensile_strength == 0.0
+    e = _error({"rock": {"cohesion": "5 Pa"}})
+    assert e.key == "rock.cohesion" and "0 or a number in [1000" in e.expected
+
+
+@pytest.mark.parametrize("rate", [0.5, 500])
+def test_a_unitless_rate_is_si_and_refused_when_implausible(rate):
+    e = _error(schedule={"phase": [{"kind": "pump", "rate": rate, "volume": "1 m3"}]})
+    assert e.key == "schedule.phase[0].rate"
+    assert f"{float(rate)!r} m^3/s" in e.message and "without a unit is read in SI" in e.message
+    assert "(0, 0.1] m^3/s" in e.expected
+
+
+def test_a_phase_with_volume_and_duration_is_refused():
+    e = _error(schedule={"phase": [{"kind": "pump", "rate": "500 l/min", "volume": "1 m3",
+                                    "duration": "2 min"}]})
+    assert e.key == "schedule.phase[0].volume" and "duration" in e.message
+    e = _error(schedule={"phase": [{"kind": "pump", "rate": "500 l/min", "volume": "1 m3"},
+                                   {"kind": "bleed", "rate": "100 l/min", "volume": "0.2 m3",
+                                    "duration": "1 min"}]})
+    assert e.key == "schedule.phase[1].volume"
+
+
+def test_a_flowback_target_above_the_pressure_it_starts_at_is_refused(tmp_path):
+    # statically: after a pump that stops at 40 MPa
+    e = _error(schedule={"phase": [
+        {"kind": "pump", "rate": "500 l/min", "pressure_above": "40 MPa"},
+        {"kind": "flowback", "initial_rate": "300 l/min", "pressure_below": "60 MPa"}]})
+    assert e.key == "schedule.phase[1].pressure_below" and "4e+07" in e.expected
+    # in a run: the flowback would start below its target and end at once
+    from xlotkit.sim.run import simulate
+
+    sc = scene_from_dict(_scene() | {"schedule": {"phase": [
+        {"kind": "pump", "rate": "500 l/min", "volume": "0.5 m3"},
+        {"kind": "flowback", "initial_rate": "300 l/min", "pressure_below": "60 MPa"}]}},
+        file="s.toml")
+    with pytest.raises(InputError) as ei:
+        simulate(sc, tmp_path / "run")
+    e = ei.value
+    assert e.key == "schedule.phase[1].pressure_below" and e.file == "s.toml"
+    assert "already below its pressure_below = 60.000 MPa" in e.message
+    assert "phase 2 (cycle 1) (flowback) starts at" in e.message
+    assert e.message.startswith("the run failed at t = ")
+
+
+def test_a_band_longer_than_the_domain_is_refused():
+    e = _error({"geometry": {"domain_size": "50 m"},
+                "mesh": {"fracture_band": True, "band_length": "80 m"}})
+    assert e.key == "mesh.band_length" and "(0.15, 25] m" in e.expected
+    e = _error({"geometry": {"domain_size": "50 m"},
+                "mesh": {"fracture_band": True, "band_width": "0.1 m",
+                         "band_element_size": "0.5 m"}})
+    assert e.key == "mesh.band_width"
+    # the default band reaches 10 m, or the domain's edge in a smaller domain
+    sc = scene_from_dict(_scene(geometry={"domain_size": "4 m"},
+                                mesh={"fracture_band": True}))
+    assert sc.band_length == 2.0
+
+
+def test_wall_and_domain_sizes_are_cross_checked():
+    e = _error({"mesh": {"wall_element_size": "0.2 m"}})
+    assert e.key == "mesh.wall_element_size" and "hole radius" in e.message
+    e = _error({"mesh": {"wall_element_size": "1e-4 m"}})
+    assert e.key == "mesh.wall_element_size" and "2048" in e.message
+    e = _error({"geometry": {"domain_size": "2 m", "hole_radius": "0.15 m"}, "mesh": {}})
+    assert e.key == "geometry.hole_radius" and "domain_size / 20" in e.expected
+    e = _error({"mesh": {"max_element_size": "80 m"}})
+    assert e.key == "mesh.max_element_size"
+
+
+def test_an_implausible_well_compliance_is_refused():
+    e = _error({"completion": {"well_compliance": 1e-30}})
+    assert e.key == "completion.well_compliance" and "[1e-13, 1e-05] m^3/Pa" in e.expected
+    # below the open hole's own fluid storage c_f pi r^2 h (lumped: the open-hole length)
+    e = _error({"completion": {"well_compliance": 1e-12}})
+    own = 4.2735042735042736e-10 * np.pi * 0.15**2 * 10.0
+    assert e.key == "completion.well_compliance" and f"{own:.4g}" in e.message
+    e = _error({"completion": {"well_compliance": 1e-8}, "effects": {"well_storage": False}})
+    assert e.key == "completion.well_compliance" and "well_storage" in e.message
+
+
+def test_a_key_the_model_does_not_read_is_refused():
+    e = _error({"rock": {"cohesion": "10 MPa"}})                 # lumped scene
+    assert e.key == "rock.cohesion" and "2D model" in e.message
+    e = _error({"model": "mdem", "lumped": {"toughness": "1 MPa*m**0.5"}})
+    assert e.key == "lumped.toughness" and "lumped model" in e.message
+    e = _error({"effects": {"pipe_friction": False}, "completion": {"roughness": "0.1 mm"}})
+    assert e.key == "completion.roughness" and "pipe_friction" in e.expected
+    e = _error({"output": {"seed": 3}})
+    assert e.key == "output.seed" and "noise" in e.expected
+    # what Scene.to_toml writes loads back: only keys the model reads
+    sc = scene_from_dict(_scene(model="mdem", mesh={"growth": 1.3}))
+    text = sc.to_toml()
+    assert "[lumped]" not in text and "band_width" not in text and "biot" not in text
+    assert _bare(scene_from_dict(tomllib.loads(text))) == _bare(sc)

@@ -352,8 +352,12 @@ def test_bad_partitioned_scenes_name_the_key():
         PartitionedMDEMEngine(scene_from_dict(_intact_dict()))
     with pytest.raises(InputError, match="coupling"):
         MDEMEngine(scene_from_dict(_intact_dict(coupling="wfc")))
-    # a [well_coupling] section is ignored by monolithic and the scene round-trips
-    sc = scene_from_dict(_intact_dict(well_coupling={"wfc_gain": 0.5}))
+    # a [well_coupling] key is not read by monolithic, nor by another scheme: refused
+    with pytest.raises(InputError, match="well_coupling.wfc_gain"):
+        scene_from_dict(_intact_dict(well_coupling={"wfc_gain": 0.5}))
+    with pytest.raises(InputError, match="well_coupling.wfc_gain"):
+        scene_from_dict(_intact_dict(coupling="wfd", well_coupling={"wfc_gain": 0.5}))
+    sc = scene_from_dict(_intact_dict(coupling="wfc", well_coupling={"wfc_gain": 0.5}))
     assert sc.well_coupling.options().wfc_gain == 0.5
 
 
@@ -605,7 +609,7 @@ def _closure_dict(**over):
         "geometry": {"domain_size": "8 m", "hole_radius": "0.15 m",
                      "segment_height": "10 m"},
         "mesh": {"growth": 1.5, "wall_element_size": "0.0785 m", "fracture_band": True,
-                 "band_width": "1 m", "band_element_size": "0.5 m", "band_length": "5 m",
+                 "band_width": "1 m", "band_element_size": "0.5 m", "band_length": "4 m",
                  "band_strip": True},
         "rock": {"youngs_modulus": "10 GPa", "poisson_ratio": 0.25,
                  "tensile_strength": "3 MPa", "toughness": "1 MPa*m**0.5",

@@ -31,7 +31,7 @@ BASE = {
     "title": "stability case", "model": "mdem",
     "geometry": {"domain_size": "4 m", "hole_radius": "0.15 m", "segment_height": "10 m"},
     "mesh": {"growth": 1.3, "wall_element_size": "0.08 m", "fracture_band": True,
-             "band_width": "0.3 m", "band_length": "3 m"},
+             "band_width": "0.3 m", "band_length": "2 m"},   # to the domain's edge
     "rock": {"youngs_modulus": "10 GPa", "poisson_ratio": 0.25, "porosity": 0.1,
              "permeability": 1e-18, "tensile_strength": "3 MPa", "cohesion": "20 MPa",
              "friction_angle": "30 deg"},
@@ -50,13 +50,14 @@ BASE = {
 
 
 def scene_dict(**over) -> dict:
-    """:data:`BASE` with sections updated (a dict replaces keys, a list replaces)."""
+    """:data:`BASE` with sections updated (a dict replaces keys, a key given None is
+    dropped, a list replaces)."""
     import copy
 
     d = copy.deepcopy(BASE)
     for k, v in over.items():
         if isinstance(v, dict) and isinstance(d.get(k), dict):
-            d[k] = {**d[k], **v}
+            d[k] = {kk: vv for kk, vv in {**d[k], **v}.items() if vv is not None}
         elif v is None:
             d.pop(k, None)
         else:

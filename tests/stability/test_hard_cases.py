@@ -67,7 +67,8 @@ def _graded_mesh_breaks_down_stably(wall: str) -> None:
     """Mesh growth 1.8 with no band around a wall of ``wall`` elements, 3 m3 at 300 l/min:
     the harness's invariants hold and the formation breaks down."""
     r = run(scene_dict(mesh={"growth": 1.8, "wall_element_size": wall,
-                             "fracture_band": False},
+                             "fracture_band": False, "band_width": None,
+                             "band_length": None},
                        schedule=_pump("300 l/min", "3 m3")), stop_length=STOP)
     assert_stable(r)
     _broke_down(r)

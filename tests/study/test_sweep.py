@@ -23,8 +23,9 @@ from xlotkit.study.executors import DaskCluster, InProcess, LocalPool
 from xlotkit.study.sweep import SweepSpec, plan_sweep, run_sweep
 from xlotkit.study.table import TIMING_COLUMNS, same_table
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-LUMPED = str(EXAMPLES / "scene_standard.toml")
+#: The lumped standard scene with a second shut-in that ends through closure for every
+#: sigma_h swept (tests/data/scenes/sweep_standard.toml says why).
+LUMPED = str(Path(__file__).resolve().parents[1] / "data" / "scenes" / "sweep_standard.toml")
 VARY = ("stresses.sigma_h=28 MPa,30 MPa", "schedule.phase[0].rate=400 l/min,500 l/min")
 #: The grid's inputs in its order (first --vary slowest) [Pa], [m^3/s].
 GRID = [(28e6, 0.4 / 60), (28e6, 0.5 / 60), (30e6, 0.4 / 60), (30e6, 0.5 / 60)]

@@ -14,11 +14,19 @@ Phases
   pressure the phase starts with.
 * :class:`Bleed` — return at constant ``rate``.
 
-Each phase ends at the first of: its ``duration``; its ``volume`` (pumped for :class:`Pump`,
-returned for :class:`Flowback` / :class:`Bleed`); the pressure rising to ``pressure_above`` or
-falling to ``pressure_below`` (measured at ``pressure_at``: ``"bottomhole"`` or
-``"surface"``, gauge). A stepped pump with no ``duration`` ends with its last step. Every
-phase needs at least one end condition.
+Each phase ends at the first of: its ``duration`` or its ``volume`` (pumped for
+:class:`Pump`, returned for :class:`Flowback` / :class:`Bleed`; one of the two, not both);
+the pressure rising to ``pressure_above`` or falling to ``pressure_below`` (measured at
+``pressure_at``: ``"bottomhole"`` or ``"surface"``, gauge). A stepped pump with no
+``duration`` ends with its last step. Every phase needs at least one end condition. A
+pressure end that cannot be met is refused: statically, a return phase's
+``pressure_below`` at or above the ``pressure_above`` the pump before it stops at (same
+gauge); in a run, a phase whose pressure end is met when it starts
+(:meth:`xlotkit.sim.well.WellDrive.begin`).
+
+Numbers are SI and must be plausible for a leak-off test (rates up to 0.1 m^3/s, volumes
+up to 100 m^3): a number without a unit is read in SI, so ``rate = 500`` meant as l/min is
+refused, not pumped at 500 m^3/s.
 
 What a phase does at the well head is answered by the phase itself (``pumps``,
 ``through_choke``, ``pump_rate(tau)``, ``fixed_return_rate``, ``breakpoints()``,
@@ -48,11 +56,18 @@ __all__ = ["Bleed", "Flowback", "Phase", "PressureAt", "Pump", "Schedule", "Shut
 
 PressureAt = Literal["bottomhole", "surface"]
 
-#: Upper bounds used in validation (generous; they catch unit mistakes such as l/min as m3/s).
-_MAX_RATE = 1.0          # m^3/s (60 m^3/min)
+#: Plausible bounds of a leak-off or step-rate test, in SI (a number without a unit is SI,
+#: so they also catch a unit left out: ``rate = 500`` meant as l/min, ``rate = 0.5`` as
+#: m^3/min). A cementing unit or a rig pump delivers up to a few m^3/min: 0.1 m^3/s
+#: (6 m^3/min, 38 bpm) is above any XLOT or mini-frac; an XLOT pumps litres to a few m^3:
+#: 100 m^3 is above any.
+_MAX_RATE = 0.1          # m^3/s (6 m^3/min)
 _MAX_DURATION = 30 * 86400.0
-_MAX_VOLUME = 1e4        # m^3
+_MAX_VOLUME = 100.0      # m^3
 _MAX_PRESSURE = 500e6    # Pa
+#: A choke coefficient of 1e-4 m^3 s^-1 Pa^-1/2 returns 0.3 m^3/s at 10 MPa: above any
+#: choke (300 l/min at 5 MPa is 2.2e-6).
+_MAX_ZETA = 1e-4
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -75,11 +90,11 @@ class _PhaseBase:
     def _validate_common(self) -> None:
         k = self.kind
         _check(f"{k}.duration", self.duration, lo=0.0, hi=_MAX_DURATION, lo_open=True,
-               allow_none=True)
+               allow_none=True, unit="s")
         _check(f"{k}.pressure_above", self.pressure_above, lo=-1e6, hi=_MAX_PRESSURE,
-               allow_none=True)
+               allow_none=True, unit="Pa")
         _check(f"{k}.pressure_below", self.pressure_below, lo=-1e6, hi=_MAX_PRESSURE,
-               allow_none=True)
+               allow_none=True, unit="Pa")
         if self.pressure_at not in ("bottomhole", "surface"):
             raise InputError(f"unknown pressure reference {self.pressure_at!r}",
                              key=f"{k}.pressure_at", expected="'bottomhole' or 'surface'")
@@ -88,6 +103,16 @@ class _PhaseBase:
             raise InputError("pressure_below must be lower than pressure_above",
                              key=f"{k}.pressure_below",
                              expected=f"a pressure < {self.pressure_above:g} Pa")
+
+    def _volume_or_duration(self, volume: float | None) -> None:
+        """A phase ends at its volume or at its duration, not at whichever comes first of
+        the two: given both, one of them is a wrong expectation of the other (a pressure
+        limit may be added to either)."""
+        if volume is not None and self.duration is not None:
+            raise InputError(
+                f"both volume ({volume:g} m^3) and duration ({self.duration:g} s) are given",
+                key=f"{self.kind}.volume",
+                expected="one of volume and duration (the rate sets the other)")
 
     def _require_end(self, *extra: Any) -> None:
         conds = (self.duration, self.pressure_above, self.pressure_below, *extra)
@@ -173,17 +198,24 @@ class Pump(_PhaseBase):
             raise InputError("give exactly one of rate and steps", key="pump.rate",
                              expected="a constant rate or a list of (duration, rate) steps")
         if self.rate is not None:
-            _check("pump.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True)
+            _check("pump.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True, unit="m^3/s")
         else:
             if not self.steps:
                 raise InputError("steps is empty", key="pump.steps",
                                  expected="at least one (duration, rate) pair")
             for i, (d, r) in enumerate(self.steps):
-                _check(f"pump.steps[{i}].duration", d, lo=0.0, hi=_MAX_DURATION, lo_open=True)
-                _check(f"pump.steps[{i}].rate", r, lo=0.0, hi=_MAX_RATE)
+                _check(f"pump.steps[{i}].duration", d, lo=0.0, hi=_MAX_DURATION, lo_open=True,
+                       unit="s")
+                _check(f"pump.steps[{i}].rate", r, lo=0.0, hi=_MAX_RATE, unit="m^3/s")
+            if self.volume is not None:
+                raise InputError("a stepped pump lasts its steps (or its duration); a volume "
+                                 "would end it at whichever comes first",
+                                 key="pump.volume",
+                                 expected="no volume with steps (or a constant rate)")
         _check("pump.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
-               allow_none=True)
+               allow_none=True, unit="m^3")
         self._validate_common()
+        self._volume_or_duration(self.volume)
         self._require_end(self.volume, self.steps)
 
     @property
@@ -273,12 +305,14 @@ class Flowback(_PhaseBase):
         if (self.zeta is None) == (self.initial_rate is None):
             raise InputError("give exactly one of zeta and initial_rate", key="flowback.zeta",
                              expected="a choke coefficient or an initial return rate")
-        _check("flowback.zeta", self.zeta, lo=0.0, hi=1e-2, lo_open=True, allow_none=True)
+        _check("flowback.zeta", self.zeta, lo=0.0, hi=_MAX_ZETA, lo_open=True,
+               allow_none=True, unit="m^3 s^-1 Pa^-1/2")
         _check("flowback.initial_rate", self.initial_rate, lo=0.0, hi=_MAX_RATE, lo_open=True,
-               allow_none=True)
+               allow_none=True, unit="m^3/s")
         _check("flowback.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
-               allow_none=True)
+               allow_none=True, unit="m^3")
         self._validate_common()
+        self._volume_or_duration(self.volume)
         self._require_end(self.volume)
 
 
@@ -300,10 +334,11 @@ class Bleed(_PhaseBase):
     volume: float | None = None
 
     def __post_init__(self) -> None:
-        _check("bleed.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True)
+        _check("bleed.rate", self.rate, lo=0.0, hi=_MAX_RATE, lo_open=True, unit="m^3/s")
         _check("bleed.volume", self.volume, lo=0.0, hi=_MAX_VOLUME, lo_open=True,
-               allow_none=True)
+               allow_none=True, unit="m^3")
         self._validate_common()
+        self._volume_or_duration(self.volume)
         self._require_end(self.volume)
 
     @property
@@ -351,6 +386,29 @@ class Schedule:
             raise InputError(f"value {self.cycles!r} is out of range", key="schedule.cycles",
                              expected="an integer in [1, 1000]")
         object.__setattr__(self, "phases", phases)
+        self._check_targets()
+
+    def _check_targets(self) -> None:
+        """A return phase cannot end at a pressure at or above the one the pump before it
+        stops at: the flowback would start below its own target and end at once."""
+        stop: tuple[int, float, str] | None = None
+        n = len(self.phases)
+        for j in range(n * min(self.cycles, 2)):
+            i = j % n
+            ph = self.phases[i]
+            if ph.pumps:
+                stop = (None if ph.pressure_above is None
+                        else (i, float(ph.pressure_above), ph.pressure_at))
+                continue
+            if stop is None or ph.pressure_below is None or ph.pressure_at != stop[2]:
+                continue
+            if ph.pressure_below >= stop[1]:
+                raise InputError(
+                    f"a {ph.kind} to pressure_below = {ph.pressure_below:g} Pa "
+                    f"({ph.pressure_at}) after a pump that stops at pressure_above = "
+                    f"{stop[1]:g} Pa (phase[{stop[0]}]) starts below its target",
+                    key=f"schedule.phase[{i}].pressure_below",
+                    expected=f"a pressure below {stop[1]:g} Pa ({ph.pressure_at})")
 
     def expanded(self) -> tuple[tuple[int, Phase], ...]:
         """All phases in run order as ``(cycle_number, phase)``; cycles are 1-based."""
@@ -464,7 +522,7 @@ def parse_quantity(value: Any, kind: str, *, key: str) -> float:
     num, unit = float(m.group(1)), m.group(2)
     if not unit:
         return num
-    pu = parse_unit(unit, key=key)
+    pu = parse_unit(unit, key=key, exact_case=True)
     if not pu.is_a(kind):
         raise InputError(f"unit {unit!r} is not a {kind} unit", key=key,
                          expected=f"a {kind}, e.g. {_EXAMPLES.get(kind, '1.0')!r}")
@@ -538,4 +596,13 @@ def _phase_from_dict(d: Any, key: str) -> Phase:
     try:
         return cls(**kw)
     except InputError as exc:
-        raise _rekey(exc, key, cls.kind) from None
+        err = _rekey(exc, key, cls.kind)
+        field_ = (err.key or "").removeprefix(key + ".")
+        raw = d.get(field_)
+        if "out of range" in err.message and raw is not None and not isinstance(raw, str) \
+                and spec.get(field_):
+            err = InputError(err.message + f" (a number without a unit is read in SI; "
+                             f"write e.g. {_EXAMPLES.get(spec[field_], '1.0')!r})",
+                             file=err.file, line=err.line, key=err.key,
+                             expected=err.expected)
+        raise err from None

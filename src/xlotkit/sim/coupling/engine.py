@@ -90,7 +90,13 @@ from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, PRESET, Mechanic
 from xlotkit.sim.output import Snapshot
 from xlotkit.sim.run.contract import EngineResult, StepCounters, StepOutcome, series_rows
 from xlotkit.sim.scene import Scene
-from xlotkit.sim.well import PhaseDrive, WellDrive, phase_place, surface_from_bottomhole
+from xlotkit.sim.well import (
+    ColumnBlowUp,
+    PhaseDrive,
+    WellDrive,
+    phase_place,
+    surface_from_bottomhole,
+)
 
 __all__ = ["DECOUPLED_BIOT", "RESIDUAL_APERTURE", "EventControl", "MDEMEngine", "MDEMResult",
            "MDEMStepOutcome", "Stepping", "build_model", "total_well_compliance",
@@ -269,8 +275,14 @@ class MDEMEngine:
     # ------------------------------------------------------------------ well rate
     def _well_rate(self, t: float, p_w: float):
         """``(Q, dQ/dp_w)`` of the phase in force [m^3/s at surface density, per segment]
-        (:meth:`xlotkit.sim.well.PhaseDrive.rate`)."""
-        return self._drive.rate(t, p_w)
+        (:meth:`xlotkit.sim.well.PhaseDrive.rate`). A Newton iterate at a borehole
+        pressure no fluid column can stand under (the column's density blows up) gets a
+        non-finite rate, which the Newton treats as a wild update (it backs off, or the
+        step is cut), not a failure of the run."""
+        try:
+            return self._drive.rate(t, p_w)
+        except ColumnBlowUp:
+            return math.nan, math.nan
 
     def _surface(self, p_bh: float, rate: float) -> float:
         """Surface gauge pressure [Pa] from the bottom-hole pressure and the rate."""
@@ -391,7 +403,11 @@ class MDEMEngine:
                 self._end_phase(why)
                 return self._outcome(True, self.time, "phase end at start: " + why)
             return self._outcome(True, self.time, "phase start")
-        return self._trial()
+        # a wild Newton iterate may overflow rho(p) = exp(c_f p) or the column: the Newton
+        # checks every residual for finite values and backs off, so numpy's warnings of
+        # those trials are noise on the user's terminal
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return self._trial()
 
     def _trial(self) -> StepOutcome:
         num = self.scene.numerics

@@ -494,7 +494,7 @@ class PartitionedMDEMEngine(MDEMEngine):
             raise InputError(f"not a Scene: {scene!r}", key="scene")
         check_partitioned_scene(scene)
         # the base class runs monolithic scenes only; everything but the stepper is shared
-        super().__init__(dataclasses.replace(scene, coupling="monolithic"), callback)
+        super().__init__(scene.as_monolithic(), callback)
         self.scene = scene
         self.strategy = scene.coupling
         self.options = scene.well_coupling.options() if options is None else options

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
+import re
+import signal
+import threading
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -14,7 +18,7 @@ import numpy as np
 
 from xlotkit import __version__
 from xlotkit.atomic import atomic_write, atomic_write_text, fresh_output_dir
-from xlotkit.errors import InputError
+from xlotkit.errors import InputError, XlotkitError
 from xlotkit.record import Record
 from xlotkit.sim.output import (
     TRUTH_QUANTITIES,
@@ -27,7 +31,7 @@ from xlotkit.sim.output import (
 )
 from xlotkit.sim.run.contract import Engine, EngineResult
 from xlotkit.sim.run.engines import make_engine
-from xlotkit.sim.scene import Scene
+from xlotkit.sim.scene import SCENE_KEYS, Scene
 
 __all__ = ["CHECKPOINT", "SimulationInterrupted", "SimulationResult", "simulate"]
 
@@ -128,7 +132,8 @@ def _load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any]]:
 
 
 def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
-             progress: Callable[[float, str], None] | None = None) -> SimulationResult:
+             progress: Callable[[float, str], None] | None = None,
+             started: Callable[[Path, bool], None] | None = None) -> SimulationResult:
     """Run a scene to the end, with checkpoints, and write its outputs.
 
     Parameters
@@ -141,9 +146,21 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
     resume : bool
         Continue from ``out_dir/checkpoint.npz`` (or start over in ``out_dir`` if the run
         was stopped before its first checkpoint). The scene must be the one of the run.
+        Snapshots written after the checkpoint are the run's own and are written again.
     progress : callable, optional
         ``progress(fraction, message)`` after every step. An exception it raises (e.g.
-        KeyboardInterrupt) stops the run; the last checkpoint stays for a resume.
+        KeyboardInterrupt) stops the run; a checkpoint of the state after the last step is
+        written first.
+    started : callable, optional
+        ``started(folder, redirected)`` once the results folder is chosen, before the
+        first step: ``redirected`` is True when ``out_dir`` held results and the run
+        writes into a sibling ``DIR-2``, ... instead.
+
+    Checkpoints (``checkpoint.npz``, atomic) are written when the run starts, at every
+    phase end, every ``numerics.checkpoint_steps`` steps or ``numerics.checkpoint_seconds``
+    of wall time, and when the run is interrupted (Ctrl-C is taken between two steps, so
+    the checkpoint is of a whole step; a second Ctrl-C stops at once, the last checkpoint
+    standing): an interrupted or killed run can always be resumed.
 
     Returns
     -------
@@ -152,46 +169,32 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
     Raises
     ------
     EngineNotAvailable
-        When the scene needs a model without an engine (``mdem`` today).
+        When the scene needs a model without an engine.
     InputError
-        For a resume into a folder without a run of this scene.
+        For a resume into a folder without a run of this scene; for a run that fails part
+        way, naming the time, the phase and (where it can) the scene key behind it.
+    SimulationInterrupted
+        When interrupted; ``out_dir`` and the checkpoint are in it.
     """
     wall0 = _time.perf_counter()
     engine = make_engine(scene)
     out = Path(out_dir)
     chash = _scene_hash(scene)
     driver: dict[str, Any] = {"n_steps": 0, "snapshots": [], "next_snapshot": 0.0,
-                              "scene_hash": chash, "model": engine.model}
+                              "scene_hash": chash, "model": engine.model, "phase": 0}
     resumed = False
     if resume:
-        if not out.is_dir():
-            raise InputError("no such results folder to resume", file=out,
-                             expected="the --out folder of an interrupted run")
-        ck = out / CHECKPOINT
-        if ck.exists():
-            saved, state = _load_checkpoint(ck)
-            if saved.get("scene_hash") != chash:
-                raise InputError("the scene differs from the one of the interrupted run",
-                                 file=ck, key="resume",
-                                 expected="the same scene file and --seed as the first run")
+        saved = _resume_point(scene, out, chash)
+        if saved is not None:
+            driver, state = saved
+            driver.setdefault("phase", 0)
             engine.restore(state)
-            driver = saved
             resumed = True
-        elif (out / "summary.json").exists():
-            raise InputError("this run has finished; nothing to resume", file=out,
-                             key="resume", expected="the folder of an interrupted run")
-        elif any(p.name not in ("scene.toml", "scene.resolved.toml") for p in out.iterdir()):
-            raise InputError("the folder holds no checkpoint of an interrupted run", file=out,
-                             key="resume", expected="the folder of an interrupted run")
         target = out
     else:
         target = fresh_output_dir(out)
     paths: dict[str, Path] = {"dir": target, "scene": target / "scene.toml",
                               "scene_resolved": target / "scene.resolved.toml"}
-    if not resumed:
-        atomic_write_text(paths["scene"], scene.text)
-        atomic_write_text(paths["scene_resolved"], scene.to_toml())
-        engine.start()
     ck_path = target / CHECKPOINT
     snap_dir = target / "snapshots"
     snap_every = scene.output.snapshot_interval
@@ -211,27 +214,177 @@ def simulate(scene: Scene, out_dir: str | Path, *, resume: bool = False,
             driver["next_snapshot"] += snap_every
             write_pvd(target / "fields.pvd", driver["snapshots"])
 
-    if not resumed:
-        take_snapshots()
     num = scene.numerics
-    since, last_ck = 0, _time.perf_counter()
-    try:
-        while not engine.is_done():
-            engine.step()
-            driver["n_steps"] += 1
-            since += 1
-            take_snapshots()
-            now = _time.perf_counter()
-            if since >= num.checkpoint_steps or now - last_ck >= num.checkpoint_seconds:
+    # from here a Ctrl-C is taken between two steps (the first one; see _deferred_interrupt)
+    with _deferred_interrupt() as asked:
+        whole = resumed     # the engine and the driver's book are at a step's end
+        try:
+            if started is not None:
+                started(target, not resume and target != out)
+            _tidy_snapshots(target, driver["snapshots"])
+            if not resumed:
+                atomic_write_text(paths["scene"], scene.text)
+                atomic_write_text(paths["scene_resolved"], scene.to_toml())
+                engine.start()
+                take_snapshots()
+                _save_checkpoint(ck_path, engine, driver)   # a run killed now can resume
+                whole = True
+            since, last_ck = 0, _time.perf_counter()
+            while not engine.is_done():
+                if asked():
+                    raise KeyboardInterrupt
+                whole = False
+                try:
+                    outcome = engine.step()
+                except (XlotkitError, RuntimeError, FloatingPointError) as exc:
+                    raise _failed(scene, engine, driver, exc) from exc
+                driver["n_steps"] += 1
+                reason = getattr(outcome, "reason", "")
+                if reason.startswith(("phase start", "phase end at start")):
+                    driver["phase"] += 1
+                since += 1
+                take_snapshots()
+                whole = True
+                now = _time.perf_counter()
+                if (since >= num.checkpoint_steps or now - last_ck >= num.checkpoint_seconds
+                        or reason.startswith("phase end")) and not asked():
+                    _save_checkpoint(ck_path, engine, driver)
+                    since, last_ck = 0, now
+                if progress is not None:
+                    progress(engine.progress(), f"t = {engine.time:.0f} s")
+        except KeyboardInterrupt as exc:
+            if whole:
                 _save_checkpoint(ck_path, engine, driver)
-                since, last_ck = 0, now
-            if progress is not None:
-                progress(engine.progress(), f"t = {engine.time:.0f} s")
-    except KeyboardInterrupt as exc:
-        raise SimulationInterrupted(target, ck_path.exists()) from exc
+            raise SimulationInterrupted(target, ck_path.exists()) from exc
     res = engine.result()
     return _finish(scene, engine, res, driver, target, paths, resumed,
                    _time.perf_counter() - wall0)
+
+
+def _resume_point(scene: Scene, out: Path, chash: str
+                  ) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The checkpoint to resume ``out`` from, or None to start over in it (a run stopped
+    before its first checkpoint; its partial outputs are its own and are written again).
+
+    Raises
+    ------
+    InputError
+        No such folder, a finished run, another scene's run, or a folder that holds
+        something else.
+    """
+    if not out.is_dir():
+        raise InputError("no such results folder to resume", file=out,
+                         expected="the --out folder of an interrupted run")
+    differs = InputError("the scene differs from the one of the interrupted run", file=out,
+                         key="resume", expected="the same scene file and --seed as the "
+                                                "first run")
+    ck = out / CHECKPOINT
+    if ck.exists():
+        saved, state = _load_checkpoint(ck)
+        if saved.get("scene_hash") != chash:
+            raise InputError(differs.message, file=ck, key="resume",
+                             expected=differs.expected)
+        return saved, state
+    if (out / "summary.json").exists():
+        raise InputError("this run has finished; nothing to resume", file=out,
+                         key="resume", expected="the folder of an interrupted run")
+    ours = {"scene.toml", "scene.resolved.toml", "snapshots", "fields.pvd"}
+    if any(p.name not in ours for p in out.iterdir()):
+        raise InputError("the folder holds no checkpoint of an interrupted run", file=out,
+                         key="resume", expected="the folder of an interrupted run")
+    resolved = out / "scene.resolved.toml"
+    if resolved.exists() and resolved.read_text(encoding="utf-8") != scene.to_toml():
+        raise differs
+    return None
+
+
+def _tidy_snapshots(target: Path, kept: list) -> None:
+    """Remove the snapshots a resumed run's checkpoint does not know (written after it, by
+    the same run: the resumed run writes them again, so the series has no duplicates)."""
+    snap_dir = target / "snapshots"
+    if not snap_dir.is_dir():
+        return
+    known = {Path(name).name for _, name in kept}
+    for f in snap_dir.glob("fields_*.vtu"):
+        if f.name not in known:
+            f.unlink()
+    pvd = target / "fields.pvd"
+    if kept:
+        write_pvd(pvd, kept)
+    elif pvd.exists():
+        pvd.unlink()
+
+
+@contextlib.contextmanager
+def _deferred_interrupt():
+    """Take a Ctrl-C (SIGINT) between two steps: the first one sets a flag the loop reads
+    after the step in progress (``asked()``), a second one interrupts at once. Only in the
+    main thread (signal handlers cannot be set elsewhere; there Ctrl-C interrupts as is)."""
+    flag = {"n": 0}
+
+    def asked() -> bool:
+        return flag["n"] > 0
+
+    if threading.current_thread() is not threading.main_thread():
+        yield asked
+        return
+
+    def handler(signum, frame):
+        flag["n"] += 1
+        if flag["n"] > 1:
+            raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield asked
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+_SCENE_KEY = re.compile(r"\b(?:schedule\.phase\[\d+\](?:\.\w+)?|(?:"
+                        + "|".join(s for s in SCENE_KEYS if s) + r")\.\w+)")
+
+
+def _failed(scene: Scene, engine: Engine, driver: dict[str, Any],
+            exc: BaseException) -> InputError:
+    """The error of a run that fails part way: when, in which phase, and the scene key
+    behind it where one is known (the error's own key, a key its message names, or the
+    key the failure points to)."""
+    plan = scene.schedule.expanded()
+    i = min(max(driver.get("phase", 0) - 1, 0), len(plan) - 1)
+    cyc, ph = plan[i]
+    n = len(scene.schedule.phases)
+    where = (f"at t = {engine.time:.3f} s, in phase {i + 1} (cycle {cyc}, {ph.label}; "
+             f"schedule.phase[{i % n}])")
+    msg = exc.message if isinstance(exc, InputError) else str(exc)
+    key = exc.key if isinstance(exc, InputError) else None
+    expected = exc.expected if isinstance(exc, InputError) else None
+    if key is not None and not _SCENE_KEY.fullmatch(key) and key not in SCENE_KEYS[""]:
+        key = None
+    if key is None:
+        m = _SCENE_KEY.search(msg)
+        key = m.group(0) if m else None
+    if key is None:
+        key, expected = _failure_key(scene, exc)
+    return InputError(f"the run failed {where}: {msg}", file=scene.source_file, key=key,
+                      expected=expected)
+
+
+def _failure_key(scene: Scene, exc: BaseException) -> tuple[str | None, str | None]:
+    """The scene key a failure without one points to."""
+    num = scene.numerics
+    if isinstance(exc, InputError) and exc.key == "column":
+        return ("fluid.compressibility",
+                "a fluid column that stands at the pressures of the test (fluid."
+                "compressibility, fluid.density, completion.depth, effects.pipe_friction)")
+    if scene.resolved_model == "mdem":
+        return ("numerics.dt_max",
+                f"gentler steps: a smaller numerics.dt_max (now {num.dt_max:g} s) or "
+                f"numerics.dp_max (now {num.dp_max:g} Pa), or a smaller numerics.dt_min "
+                f"(now {num.dt_min:g} s)")
+    return ("numerics.dp_max",
+            f"a smaller numerics.dp_max (now {num.dp_max:g} Pa): the lumped model's "
+            f"largest pressure change per step")
 
 
 def _finish(scene: Scene, engine: Engine, res: EngineResult, driver: dict[str, Any], target: Path,

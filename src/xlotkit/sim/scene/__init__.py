@@ -20,7 +20,7 @@ without a unit are SI; strings may carry field units: ``"2000 m"``, ``"10 l/min"
                   expansion, steel_modulus, steel_poisson, roughness, well_compliance,
                   initial_pressure
     [schedule]    see :meth:`xlotkit.sim.schedule.Schedule.from_dict`
-    [numerics]    dt_min, dt_max, n1, n2, newton_tol, max_newton, checkpoint_steps,
+    [numerics]    dt_min, dt_max, n1, n2, max_newton, checkpoint_steps,
                   checkpoint_seconds, max_phase_duration, dp_max
     [effects]     well_storage, pipe_friction, poroelastic, heterogeneity, strength_scaling,
                   shear_dilation, [[effects.interface]] (start, end, friction_angle)
@@ -42,6 +42,8 @@ Layout of the package (configuration: it imports no engine)
 * :mod:`~xlotkit.sim.scene.lumped` -- :class:`LumpedScene`, the lumped model's own
   configuration, and the older lumped file layout;
 * :mod:`~xlotkit.sim.scene.model` -- :class:`Scene`;
+* :mod:`~xlotkit.sim.scene.applies` -- which keys each model reads (a key set where it
+  is not read is refused);
 * :mod:`~xlotkit.sim.scene.io` -- :func:`load_scene`, :func:`scene_from_dict`,
   :func:`standard_2d_scene`; :mod:`~xlotkit.sim.scene.reference` -- the key tables.
 

@@ -65,6 +65,7 @@ def _build(data: Mapping[str, Any], *, file: str | None, text: str | None) -> Sc
     for name, body in data.items():
         if name in top:
             kw[name] = _to_si("", name, body)
+            given.add(name)
             continue
         if name not in _SECTIONS:
             raise InputError(f"unknown section or key {name!r}", key=name,
@@ -85,6 +86,7 @@ def _build(data: Mapping[str, Any], *, file: str | None, text: str | None) -> Sc
                 skw[k] = _interfaces(v)
             else:
                 skw[k] = _to_si(name, k, v)
+            given.add(f"{name}.{k}")
         if name == "mesh" and skw.get("file"):
             mf = Path(skw["file"])
             if file is not None and not mf.is_absolute():

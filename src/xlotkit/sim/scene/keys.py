@@ -39,6 +39,9 @@ class KeySpec:
         Allowed range; ``lo_open`` / ``hi_open`` make a bound strict.
     optional : bool
         None (absent) is allowed and means "derived" (``doc`` says from what).
+    zero_ok : bool
+        Exactly 0 is allowed besides the range (a strength of 0: a rock without one; a
+        nonzero value below ``lo`` is a unit mistake, e.g. ``"3 mPa"``).
     choices : tuple of str
         Allowed values of a ``choice``.
     doc : str
@@ -54,6 +57,7 @@ class KeySpec:
     optional: bool = False
     choices: tuple[str, ...] = ()
     doc: str = ""
+    zero_ok: bool = False
 
     def range_text(self) -> str:
         """``"a number in (0, 1e-9] m^2"``-style description of what is allowed."""
@@ -66,6 +70,8 @@ class KeySpec:
         if self.kind == "path":
             return "a file name"
         what = "an integer" if self.kind == "int" else "a number"
+        if self.zero_ok:
+            what = "0 or " + what
         u = f" {self.unit}" if self.unit else ""
         if self.lo is None and self.hi is None:
             return what + u
@@ -80,6 +86,8 @@ class KeySpec:
         """Whether the SI value ``v`` is finite and within the range."""
         if not math.isfinite(v):
             return False
+        if self.zero_ok and v == 0.0:
+            return True
         if self.lo is not None and (v < self.lo or (self.lo_open and v == self.lo)):
             return False
         if self.hi is not None and (v > self.hi or (self.hi_open and v == self.hi)):
@@ -88,8 +96,9 @@ class KeySpec:
 
 
 def _k(kind: str, unit: str = "", lo=None, hi=None, *, lo_open=False, hi_open=False,
-       optional=False, choices=(), doc="") -> KeySpec:
-    return KeySpec(kind, unit, lo, hi, lo_open, hi_open, optional, tuple(choices), doc)
+       optional=False, choices=(), doc="", zero_ok=False) -> KeySpec:
+    return KeySpec(kind, unit, lo, hi, lo_open, hi_open, optional, tuple(choices), doc,
+                   zero_ok)
 
 
 _P = "pressure"
@@ -113,8 +122,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
     },
     "geometry": {
         "domain_size": _k(_L, "m", 1.0, 1e4, doc="side of the square 2D domain"),
-        "hole_radius": _k(_L, "m", 0.01, 2.0, doc="open-hole (borehole) radius"),
-        "segment_height": _k(_L, "m", 0.0, 1000.0, lo_open=True,
+        "hole_radius": _k(_L, "m", 0.02, 0.6,
+                         doc="open-hole (borehole) radius (a 1.6 in to 47 in hole; at most "
+                             "domain_size / 20)"),
+        "segment_height": _k(_L, "m", 0.1, 1000.0,
                              doc="height of the open-hole segment (2D plane-strain "
                                  "thickness; KGD fracture height of the lumped model)"),
     },
@@ -122,15 +133,22 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "growth": _k("dimensionless", "", 1.0, 2.0, lo_open=True,
                      doc="element size growth rate away from the hole"),
         "wall_element_size": _k(_L, "m", 0.0, 1.0, lo_open=True, optional=True,
-                                doc="edge length on the hole wall (default 2 pi r / 64)"),
+                                doc="edge length on the hole wall (default 2 pi r / 64; "
+                                    "at most hole_radius, at least 2 pi r / 2048)"),
         "max_element_size": _k(_L, "m", 0.0, 1e3, lo_open=True, optional=True,
-                               doc="largest edge length (default domain_size / 10)"),
+                               doc="largest edge length (default domain_size / 10; at least "
+                                   "the wall's, at most domain_size / 2)"),
         "fracture_band": _k("bool", doc="refine a band along sigma_H (expected fracture)"),
-        "band_width": _k(_L, "m", 0.0, 100.0, lo_open=True, doc="full width of the band"),
+        "band_width": _k(_L, "m", 0.0, 100.0, lo_open=True,
+                         doc="full width of the band (at least band_element_size, at most "
+                             "domain_size / 2)"),
         "band_element_size": _k(_L, "m", 0.0, 1.0, lo_open=True, optional=True,
-                                doc="edge length in the band (default wall_element_size)"),
-        "band_length": _k(_L, "m", 0.0, 1e4, lo_open=True,
-                          doc="half-length of the band from the hole centre"),
+                                doc="edge length in the band (default wall_element_size; "
+                                    "at most max_element_size)"),
+        "band_length": _k(_L, "m", 0.0, 1e4, lo_open=True, optional=True,
+                          doc="half-length of the band from the hole centre (beyond the "
+                              "hole, within the domain: at most domain_size / 2; default "
+                              "10 m or domain_size / 2 if less)"),
         "band_strip": _k("bool", doc="lay a crack strip along the band axis: two staggered "
                                      "node rows, every strip triangle straddling the axis "
                                      "(only they are band clusters)"),
@@ -151,22 +169,26 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                        doc="porosity phi"),
         "permeability": _k("permeability", "m^2", 0.0, 1e-9,
                            doc="matrix permeability k (accepts mD, uD, nD, darcy)"),
-        "tensile_strength": _k(_P, "Pa", 0.0, 100e6, doc="tensile strength T0"),
-        "cohesion": _k(_P, "Pa", 0.0, 500e6, doc="Mohr-Coulomb cohesion S0"),
-        "friction_angle": _k("angle", "deg", 0.0, 89.0, doc="internal friction angle phi"),
+        "tensile_strength": _k(_P, "Pa", 1e3, 100e6, zero_ok=True,
+                               doc="tensile strength T0 (0, or 1 kPa to 100 MPa: a strength "
+                                   "below 1 kPa is a unit mistake)"),
+        "cohesion": _k(_P, "Pa", 1e3, 500e6, zero_ok=True,
+                       doc="Mohr-Coulomb cohesion S0 (0, or 1 kPa to 500 MPa)"),
+        "friction_angle": _k("angle", "deg", 0.0, 70.0,
+                             doc="internal friction angle phi (rocks: 15 to 60 deg)"),
         "heterogeneity": _k("dimensionless", "", 0.0, 1.0, hi_open=True,
                             doc="half-width of the uniform strength perturbation (used when "
                                 "effects.heterogeneity)"),
-        "strength_scaling_exponent": _k("dimensionless", "", 0.0, 1.0,
+        "strength_scaling_exponent": _k("dimensionless", "", 0.0, 1.0, lo_open=True,
                                         doc="exponent m of (A_ref / A)^m (used when "
                                             "effects.strength_scaling)"),
         "strength_scaling_reference_area": _k("m**2", "m^2", 0.0, 1e4, lo_open=True,
                                               doc="reference cluster area A_ref"),
-        "toughness": _k("Pa*m**0.5", "Pa m^0.5", 0.0, 100e6, lo_open=True, optional=True,
+        "toughness": _k("Pa*m**0.5", "Pa m^0.5", 1e4, 100e6, optional=True,
                         doc="fracture toughness K_IC of crack-tip clusters (used when "
                             "effects.strength_scaling; sets A_ref from T0, needs the "
                             "exponent 0.25)"),
-        "fracture_friction_angle": _k("angle", "deg", 0.0, 89.0,
+        "fracture_friction_angle": _k("angle", "deg", 0.0, 70.0,
                                       doc="friction angle of failed fracture-band clusters "
                                           "(used when effects.fracture_plane)"),
         "dilation_angle": _k("angle", "deg", 0.0, 45.0, lo_open=True, optional=True,
@@ -177,40 +199,47 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                    doc="seed of the heterogeneity draw (default: the master seed)"),
     },
     "stresses": {
-        "sigma_H": _k(_P, "Pa", 0.0, 500e6, lo_open=True,
+        "sigma_H": _k(_P, "Pa", 1e5, 500e6,
                       doc="maximum horizontal total stress (>= sigma_h)"),
-        "sigma_h": _k(_P, "Pa", 0.0, 500e6, lo_open=True,
+        "sigma_h": _k(_P, "Pa", 1e5, 500e6,
                       doc="minimum horizontal total stress"),
         "sigma_H_azimuth": _k("angle", "deg", 0.0, 180.0, hi_open=True,
                               doc="direction of sigma_H, counter-clockwise from the 2D x axis"),
         "pore_pressure": _k(_P, "Pa", 0.0, 500e6, doc="initial pore pressure p0 (< sigma_h)"),
     },
     "fluid": {
-        "density": _k("density", "kg/m^3", 100.0, 5000.0, doc="density rho0 at surface"),
-        "compressibility": _k("1/Pa", "1/Pa", 0.0, 1e-6, doc="compressibility c_f"),
-        "viscosity": _k("Pa*s", "Pa s", 0.0, 100.0, lo_open=True, doc="viscosity mu"),
+        "density": _k("density", "kg/m^3", 500.0, 3000.0,
+                      doc="density rho0 at surface (well fluids: 0.5 to 3 sg)"),
+        "compressibility": _k("1/Pa", "1/Pa", 0.0, 1e-7,
+                              doc="compressibility c_f (water 4.3e-10; at most 100 times)"),
+        "viscosity": _k("Pa*s", "Pa s", 1e-5, 10.0,
+                        doc="viscosity mu (0.01 cP, a gas, to 10 000 cP)"),
     },
     "completion": {
-        "depth": _k(_L, "m", 0.0, 20000.0, lo_open=True,
+        "depth": _k(_L, "m", 1.0, 20000.0,
                     doc="measured depth of the bottom of the open hole"),
         "tvd": _k(_L, "m", 0.0, 20000.0, optional=True,
                   doc="true vertical depth of the open hole (default: depth, vertical)"),
-        "casing_id": _k(_L, "m", 0.0, 2.0, lo_open=True, doc="casing inner diameter"),
-        "casing_od": _k(_L, "m", 0.0, 3.0, lo_open=True, optional=True,
+        "casing_id": _k(_L, "m", 0.03, 1.0, doc="casing inner diameter"),
+        "casing_od": _k(_L, "m", 0.03, 1.2, optional=True,
                         doc="casing outer diameter (needed with expansion)"),
-        "pipe_od": _k(_L, "m", 0.0, 2.0, doc="drill-pipe outer diameter (0: no pipe)"),
-        "pipe_id": _k(_L, "m", 0.0, 2.0, lo_open=True, doc="drill-pipe inner diameter"),
+        "pipe_od": _k(_L, "m", 0.01, 1.0, zero_ok=True,
+                      doc="drill-pipe outer diameter (0: no pipe)"),
+        "pipe_id": _k(_L, "m", 0.005, 1.0, doc="drill-pipe inner diameter"),
         "open_hole_length": _k(_L, "m", 0.0, 20000.0,
                                doc="length of new formation below the shoe"),
         "expansion": _k("bool", doc="add casing expansion and pipe-steel compression to "
                                     "the well compliance"),
-        "steel_modulus": _k(_P, "Pa", 1e9, 1e12, doc="Young's modulus of the steel"),
+        "steel_modulus": _k(_P, "Pa", 50e9, 300e9,
+                            doc="Young's modulus of the steel (aluminium to tungsten "
+                                "alloys: 50 to 300 GPa)"),
         "steel_poisson": _k("dimensionless", "", 0.0, 0.5, hi_open=True,
                             doc="Poisson's ratio of the steel"),
         "roughness": _k(_L, "m", 0.0, 0.01, doc="absolute pipe roughness"),
-        "well_compliance": _k("m**3/Pa", "m^3/Pa", 0.0, 1e-3, lo_open=True, optional=True,
+        "well_compliance": _k("m**3/Pa", "m^3/Pa", 1e-13, 1e-5, optional=True,
                               doc="override of the well compliance C_w (default from the "
-                                  "completion and c_f)"),
+                                  "completion and c_f); at least the open hole's own "
+                                  "c_f pi r^2 h (needs effects.well_storage)"),
         "initial_pressure": _k(_P, "Pa", 0.0, 500e6, optional=True,
                                doc="bottom-hole pressure at t = 0 (default: static column)"),
     },
@@ -221,15 +250,16 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                          "log sample)"),
         "n1": _k("int", "", 0, 10**6, doc="step may grow when fewer clusters fail in it"),
         "n2": _k("int", "", 1, 10**6, doc="step is cut when more clusters fail in it"),
-        "newton_tol": _k("dimensionless", "", 0.0, 1e-2, lo_open=True,
-                         doc="relative Newton residual tolerance"),
         "max_newton": _k("int", "", 1, 1000, doc="Newton iterations per step"),
         "checkpoint_steps": _k("int", "", 1, 10**9, doc="checkpoint every this many steps"),
-        "checkpoint_seconds": _k(_T, "s", 0.0, 86400.0, lo_open=True,
-                                 doc="and at least every this much wall-clock time"),
+        "checkpoint_seconds": _k(_T, "s", 1.0, 86400.0,
+                                 doc="and at least every this much wall-clock time (also at "
+                                     "the start and at every phase end)"),
         "max_phase_duration": _k(_T, "s", 1.0, 30 * 86400.0,
                                  doc="safety limit of a phase whose end is never met"),
-        "dp_max": _k(_P, "Pa", 1e3, 10e6, doc="largest pressure change per step (lumped)"),
+        "dp_max": _k(_P, "Pa", 1e3, 10e6,
+                     doc="largest pressure change per step (the 2D model: on a step "
+                         "without failures)"),
     },
     "effects": {
         "well_storage": _k("bool", doc="the whole well's fluid volume stores fluid (false: "
@@ -250,8 +280,9 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
     },
     "output": {
         "log_interval": _k(_T, "s", 1e-3, 3600.0, doc="sample interval of the synthetic log"),
-        "noise": _k(_P, "Pa", 0.0, 10e6, doc="standard deviation of Gaussian gauge noise"),
-        "resolution": _k(_P, "Pa", 0.0, 10e6, doc="gauge resolution (0: none)"),
+        "noise": _k(_P, "Pa", 0.0, 1e6,
+                    doc="standard deviation of Gaussian gauge noise (at most 10 bar)"),
+        "resolution": _k(_P, "Pa", 0.0, 1e6, doc="gauge resolution (0: none; at most 10 bar)"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,
                    doc="seed of the gauge noise (default: the master seed)"),
         "snapshot_interval": _k(_T, "s", 0.0, 1e7, lo_open=True, optional=True,
@@ -266,17 +297,17 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
     "lumped": {
         "fracture_geometry": _k("choice", choices=("penny", "kgd"),
                                 doc="fracture geometry of the lumped model"),
-        "toughness": _k("Pa*m**0.5", "Pa m^0.5", 0.0, 100e6, lo_open=True,
+        "toughness": _k("Pa*m**0.5", "Pa m^0.5", 1e4, 100e6,
                         doc="apparent fracture toughness K_Ic"),
         "initial_flaw": _k(_L, "m", 0.0, 10.0, lo_open=True, optional=True,
                            doc="flaw size at breakdown (default: geometry.hole_radius)"),
         "reopening": _k("choice", choices=("wellbore", "sigma_h"),
                         doc="where a closed fracture reopens"),
-        "nwb_coefficient": _k("Pa*s**2/m**6", "Pa s^2/m^6", 0.0, 1e13,
+        "nwb_coefficient": _k("Pa*s**2/m**6", "Pa s^2/m^6", 0.0, 1e12,
                               doc="near-wellbore entry loss k (p = p_f + k Q_f^2)"),
-        "leakoff_coefficient": _k("m/s**0.5", "m/s^0.5", 0.0, 1e-2, optional=True,
+        "leakoff_coefficient": _k("m/s**0.5", "m/s^0.5", 0.0, 1e-3, optional=True,
                                   doc="Carter C_L (default: from rock and fluid, see docs)"),
-        "wall_leak_index": _k("m**3/s/Pa", "m^3/(s Pa)", 0.0, 1e-6, optional=True,
+        "wall_leak_index": _k("m**3/s/Pa", "m^3/(s Pa)", 0.0, 1e-8, optional=True,
                               doc="open-hole wall leak J (default: from the permeability)"),
     },
     "well_coupling": {
@@ -320,6 +351,9 @@ def _range_error(section: str, key: str, raw: Any, si: float | None = None) -> I
     shown = repr(raw)
     if si is not None and isinstance(raw, str):
         shown += f" (= {si:g} {sp.unit})".replace("  ", " ")
+    elif sp.unit and sp.kind not in ("int", "angle") and not isinstance(raw, str):
+        # a number without a unit is SI: say so, a unit left out is the likely mistake
+        shown += f" (a number without a unit is SI: {sp.unit})"
     return InputError(f"value {shown} is out of range", key=_dotted(section, key),
                       expected=sp.range_text())
 
@@ -364,12 +398,18 @@ def _to_si(section: str, key: str, raw: Any) -> Any:
         if not sp.in_range(float(raw)):
             raise _range_error(section, key, raw)
         return raw
-    if kind == "angle":
-        v = _angle(raw, dk)
-    elif kind == "permeability":
-        v = _permeability(raw, dk)
-    else:
-        v = _quantity(raw, kind, dk)
+    try:
+        if kind == "angle":
+            v = _angle(raw, dk)
+        elif kind == "permeability":
+            v = _permeability(raw, dk)
+        else:
+            v = _quantity(raw, kind, dk)
+    except InputError as exc:
+        # the value as given and what the key allows, besides what the unit parser said
+        raise InputError(f"{exc.message} (given {raw!r})", key=dk,
+                         expected=f"{exc.expected}; allowed: {sp.range_text()}"
+                         if exc.expected else sp.range_text()) from None
     if not sp.in_range(v):
         raise _range_error(section, key, raw, v)
     return v

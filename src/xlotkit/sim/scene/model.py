@@ -10,10 +10,12 @@ from typing import Any, Literal
 
 from xlotkit import formulas
 from xlotkit.errors import InputError
+from xlotkit.sim.scene.applies import applies, inapplicable
 from xlotkit.sim.scene.keys import PARTITIONED_COUPLINGS, Coupling, Model, _validate
 from xlotkit.sim.scene.lumped import LumpedScene
 from xlotkit.sim.scene.sections import (
     _SECTION_TYPES,
+    MAX_WALL_SEGMENTS,
     CompletionOptions,
     Effects,
     Fluid,
@@ -29,7 +31,10 @@ from xlotkit.sim.scene.sections import (
 from xlotkit.sim.schedule import Schedule
 from xlotkit.sim.well import Completion, well_compliance
 
-__all__ = ["Scene", "carter_coefficient"]
+__all__ = ["BAND_LENGTH", "Scene", "carter_coefficient"]
+
+#: Default half-length of the fracture band [m] (or the domain's half-side if less).
+BAND_LENGTH = 10.0
 
 #: Combined Carter coefficient of the rock (:func:`xlotkit.formulas.carter_coefficient`).
 carter_coefficient = formulas.carter_coefficient
@@ -52,7 +57,10 @@ class Scene:
         Master seed.
     title : str
     given : frozenset of str
-        Sections present in the scene file (a ``[mesh]`` section asks for the 2D model).
+        Sections present in the scene file (a ``[mesh]`` section asks for the 2D model)
+        and the dotted keys given in it (``"rock.cohesion"``, ``"seed"``): a key given
+        that the scene's model does not read is refused
+        (:mod:`xlotkit.sim.scene.applies`).
     source_text : str or None
         The scene file's text, kept for the outputs.
     source_file : str or None
@@ -103,12 +111,25 @@ class Scene:
                              "only used with shear dilation, which is off",
                              key="rock.dilation_angle",
                              expected="effects.shear_dilation = true, or no dilation_angle")
+        if self.resolved_model == "mdem" and self.mesh.file is None:
+            self._check_mesh()
+        self._check_well_compliance()
         if self.model == "lumped" and self.two_d_reasons:
             key = self.two_d_reasons[0]
             raise InputError(f"model = 'lumped' cannot simulate {key}", key=key,
                              expected="model = 'mdem' or 'auto', or drop " + key)
         if self.coupling in PARTITIONED_COUPLINGS:
             self._check_partitioned()
+        bad = inapplicable(self)
+        if bad is not None:
+            key, needs = bad
+            sec, _, name = key.rpartition(".")
+            value = getattr(getattr(self, sec) if sec else self, name)
+            model = ("the 2D model" if self.resolved_model == "mdem"
+                     else "the lumped model")
+            raise InputError(f"{key} = {_shown(value)} is not read by this scene ({model}): "
+                             f"it needs {needs}", key=key,
+                             expected=f"no {key}, or {needs}")
         if self.resolved_model == "lumped":
             # fail now, not mid-run, on values only the lumped model rejects
             try:
@@ -116,6 +137,92 @@ class Scene:
             except InputError as exc:
                 raise InputError(exc.message, key=_LUMPED_KEYS.get(exc.key or "", exc.key),
                                  expected=exc.expected) from None
+
+    def _check_mesh(self) -> None:
+        """The generated mesh's sizes against the geometry (what the generator would
+        refuse or silently clip, named by their scene keys before a run)."""
+        g, mo = self.geometry, self.mesh
+        r, size = g.hole_radius, g.domain_size
+        h_wall = mo.wall_element_size if mo.wall_element_size is not None else (
+            2 * math.pi * r / 64)
+        h_max = mo.max_element_size if mo.max_element_size is not None else size / 10.0
+        if mo.wall_element_size is not None:
+            if h_wall > r:
+                raise InputError(
+                    f"value {h_wall!r} m is above the hole radius {r:g} m (fewer than "
+                    f"{2 * math.pi:.2f} segments on the wall)", key="mesh.wall_element_size",
+                    expected=f"a number in [{2 * math.pi * r / MAX_WALL_SEGMENTS:.3g}, {r:g}] "
+                             f"m (2 pi r / {MAX_WALL_SEGMENTS} to the hole radius)")
+            if h_wall < 2 * math.pi * r / MAX_WALL_SEGMENTS:
+                raise InputError(
+                    f"value {h_wall!r} m puts more than {MAX_WALL_SEGMENTS} segments on the "
+                    f"wall", key="mesh.wall_element_size",
+                    expected=f"a number in [{2 * math.pi * r / MAX_WALL_SEGMENTS:.3g}, {r:g}] m")
+        if mo.max_element_size is not None and not h_wall <= h_max <= 0.5 * size:
+            raise InputError(
+                f"value {h_max!r} m is outside the wall's edge {h_wall:g} m to half the domain "
+                f"{0.5 * size:g} m", key="mesh.max_element_size",
+                expected=f"a number in [{h_wall:g}, {0.5 * size:g}] m")
+        if not mo.fracture_band:
+            return
+        h_band = mo.band_element_size if mo.band_element_size is not None else h_wall
+        half = 0.5 * size
+        if not r < self.band_length <= half * (1.0 + 1e-12):
+            raise InputError(
+                f"value {self.band_length!r} m does not fit between the hole ({r:g} m) and the "
+                f"domain's edge ({half:g} m from the hole centre: domain_size {size:g} m)",
+                key="mesh.band_length",
+                expected=f"a number in ({r:g}, {half:g}] m (or a larger geometry.domain_size)")
+        if not mo.band_width <= half * (1.0 + 1e-12):
+            raise InputError(f"value {mo.band_width!r} m is wider than half the domain",
+                             key="mesh.band_width",
+                             expected=f"a number in [{h_band:g}, {half:g}] m")
+        if h_band > h_max:
+            raise InputError(
+                f"value {h_band!r} m is above the largest element {h_max:g} m",
+                key=("mesh.band_element_size" if mo.band_element_size is not None
+                     else "mesh.wall_element_size"),
+                expected=f"a number <= mesh.max_element_size ({h_max:g} m)")
+        if mo.band_width < h_band * (1.0 - 1e-12):
+            raise InputError(
+                f"value {mo.band_width!r} m is narrower than the band's elements "
+                f"({h_band:g} m)", key="mesh.band_width",
+                expected=f"a number in [{h_band:g}, {half:g}] m (or a smaller "
+                         f"mesh.band_element_size)")
+
+    @property
+    def band_length(self) -> float:
+        """Half-length of the fracture band [m]: ``mesh.band_length``, by default 10 m or
+        the domain's half-side if less."""
+        if self.mesh.band_length is not None:
+            return float(self.mesh.band_length)
+        return min(BAND_LENGTH, 0.5 * self.geometry.domain_size)
+
+    def _check_well_compliance(self) -> None:
+        """A given well compliance holds the open hole's own fluid storage, so it cannot
+        be below it (the 2D model would take the difference as 0, the lumped model a well
+        stiffer than its fluid)."""
+        cw = self.completion.well_compliance
+        if cw is None:
+            return
+        if not self.effects.well_storage:
+            raise InputError(
+                f"completion.well_compliance = {cw:g} m^3/Pa is the whole well's storage, "
+                "which effects.well_storage = false leaves out",
+                key="completion.well_compliance",
+                expected="effects.well_storage = true, or no well_compliance")
+        g = self.geometry
+        if self.resolved_model == "mdem":
+            h, what = g.segment_height, "geometry.segment_height"
+        else:
+            h, what = self.completion.open_hole_length, "completion.open_hole_length"
+        own = self.fluid.compressibility * math.pi * g.hole_radius**2 * h
+        if cw < own * (1.0 - 1e-9):
+            raise InputError(
+                f"value {cw:g} m^3/Pa is below the open hole's own fluid storage "
+                f"c_f pi r^2 h = {own:.4g} m^3/Pa (h = {what} = {h:g} m)",
+                key="completion.well_compliance",
+                expected=f"a number in [{own:.4g}, 1e-05] m^3/Pa")
 
     def _check_partitioned(self) -> None:
         """A partitioned coupling needs a well beyond the open hole to couple it to."""
@@ -164,6 +271,14 @@ class Scene:
         if self.model != "auto":
             return self.model
         return "mdem" if self.two_d_reasons else "lumped"
+
+    def as_monolithic(self) -> Scene:
+        """The same scene with the well coupled monolithically (the 2D segment a
+        partitioned engine steps): ``coupling = "monolithic"``, no ``[well_coupling]``."""
+        return dataclasses.replace(
+            self, coupling="monolithic", well_coupling=WellCouplingOptions(),
+            given=frozenset(k for k in self.given
+                            if k != "coupling" and not k.startswith("well_coupling")))
 
     # ------------------------------------------------------------------ seeds
     @property
@@ -260,7 +375,7 @@ class Scene:
             numerics=Numerics(max_phase_duration=ls.max_phase_duration, dp_max=ls.dp_max),
             effects=Effects(pipe_friction=ls.pipe_friction),
             output=OutputOptions(log_interval=ls.dt, noise=ls.noise, resolution=ls.resolution,
-                                 seed=int(ls.seed), start_time=ls.start_time),
+                                 start_time=ls.start_time),     # noise: the master seed
             lumped=LumpedOptions(fracture_geometry=ls.geometry, toughness=ls.toughness,
                                  initial_flaw=ls.initial_flaw, reopening=ls.reopening,
                                  nwb_coefficient=ls.nwb_coefficient,
@@ -274,17 +389,22 @@ class Scene:
         """The scene as TOML in SI (every key written; loads back to an equal scene)."""
         lines = []
         for key in ("title", "model", "coupling", "seed"):
-            lines.append(f"{key} = {_toml_value(getattr(self, key))}")
+            if applies(self, key):
+                lines.append(f"{key} = {_toml_value(getattr(self, key))}")
         for sec, cls in _SECTION_TYPES.items():
             if sec == "mesh" and "mesh" not in self.given:
                 continue    # a [mesh] section asks for the 2D model
             obj = getattr(self, sec)
-            lines.append(f"\n[{sec}]")
+            body = []
             for f in dataclasses.fields(obj):
                 v = getattr(obj, f.name)
-                if v is None or f.name == "interface":
-                    continue
-                lines.append(f"{f.name} = {_toml_value(v)}")
+                if v is None or f.name == "interface" or not applies(self, f"{sec}.{f.name}"):
+                    continue    # a key the scene does not read is not written
+                body.append(f"{f.name} = {_toml_value(v)}")
+            if not body and not (sec == "effects" and self.effects.interface):
+                continue
+            lines.append(f"\n[{sec}]")
+            lines.extend(body)
             if sec == "effects":
                 for p in self.effects.interface:
                     lines.append("[[effects.interface]]")
@@ -322,6 +442,12 @@ _LUMPED_KEYS = {  # LumpedScene field -> scene key, for errors only the lumped m
     "leakoff_coefficient": "lumped.leakoff_coefficient",
     "wall_leak_index": "lumped.wall_leak_index", "tvd": "completion.tvd",
 }
+
+
+def _shown(v: Any) -> str:
+    if isinstance(v, tuple):
+        return f"{len(v)} entries"
+    return _toml_value(v)
 
 
 def _toml_value(v: Any) -> str:

@@ -42,7 +42,7 @@ def quantity(value: Any, dim: str, key: str) -> float:
     num, unit = float(m.group(1)), m.group(2)
     if not unit:
         return num
-    pu = parse_unit(unit, key=key)
+    pu = parse_unit(unit, key=key, exact_case=True)
     if pu.dimensionality != registry().Unit(dim).dimensionality:
         raise InputError(f"unit {unit!r} has the wrong dimension", key=key,
                          expected=f"a unit of the dimension of {dim}")
@@ -98,6 +98,12 @@ def permeability(raw: Any, key: str) -> float:
     """m^2 from a number (m^2) or ``"1 mD"``, ``"50 nD"``, ``"1e-18 m**2"``."""
     if isinstance(raw, str):
         m = _NUM_UNIT.match(raw)
-        if m and m.group(2).strip().lower() in _PERM_UNITS:
-            return float(m.group(1)) * _PERM_UNITS[m.group(2).strip().lower()]
+        unit = m.group(2).strip() if m else ""
+        if unit.lower() in _PERM_UNITS:
+            if unit[:1] == "M":
+                # "MD" is a megadarcy in SI case and a millidarcy as the field writes it
+                raise InputError(f"unit {unit!r} is ambiguous: in SI case it is a "
+                                 "megadarcy, as the field writes it a millidarcy", key=key,
+                                 expected="'mD' for millidarcy (the SI case)")
+            return float(m.group(1)) * _PERM_UNITS[unit.lower()]
     return quantity(raw, "m**2", key)

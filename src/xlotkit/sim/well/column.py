@@ -34,6 +34,7 @@ from xlotkit.units import GRAVITY
 
 __all__ = [
     "GRAVITY",
+    "ColumnBlowUp",
     "INCH",
     "RE_LAMINAR",
     "WATER_COMPRESSIBILITY",
@@ -46,6 +47,12 @@ __all__ = [
     "hydrostatic_bottomhole",
     "surface_from_bottomhole",
 ]
+
+class ColumnBlowUp(InputError):
+    """The fluid column has no finite solution at the pressure and rate asked (its density
+    ``exp(c_f (p - p_ref))`` or its friction blows up over the column's length): a well
+    that cannot stand, or a pressure no solution will visit (a wild Newton iterate)."""
+
 
 #: One inch [m].
 INCH = 0.0254
@@ -196,8 +203,8 @@ def _riccati(q0: float, a: float, b: float, ell: float) -> float:
 
 def _guard(d: float) -> None:
     if not d > 0.0:
-        raise InputError("fluid column has no finite solution (density or friction blows up)",
-                         key="column", expected="a physically plausible well and rate")
+        raise ColumnBlowUp("fluid column has no finite solution (density or friction blows "
+                           "up)", key="column", expected="a physically plausible well and rate")
 
 
 def _integrate_column(p_start: float, rate: float, column: Column, ell: float) -> float:

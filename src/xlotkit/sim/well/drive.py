@@ -234,14 +234,42 @@ class WellDrive:
         Raises
         ------
         InputError
-            A flowback that starts without surface pressure to calibrate its choke from.
+            A flowback that starts without surface pressure to calibrate its choke from; a
+            phase (not restored from a checkpoint) whose pressure end is already met at
+            ``p_bh`` (it would end at once: the target is on the wrong side).
         """
+        fresh = zeta is None
         if zeta is None:
             zeta = 0.0
             if phase.through_choke:
                 zeta = self._calibrate(phase, p_bh, where)
-        return PhaseDrive(phase, self.column, float(t0), float(zeta), float(v_in),
-                          float(v_ret), self.choke_linear)
+        drive = PhaseDrive(phase, self.column, float(t0), float(zeta), float(v_in),
+                           float(v_ret), self.choke_linear)
+        if fresh:
+            self._check_reachable(drive, p_bh, where)
+        return drive
+
+    def _check_reachable(self, drive: PhaseDrive, p_bh: float, where: str | None) -> None:
+        """A phase whose pressure end is met when it starts would end at once: the scene
+        asked for a target on the wrong side of the pressure the test reaches (a
+        flowback to 60 MPa after a test that peaked at 40)."""
+        ph = drive.phase
+        ps = surface_from_bottomhole(p_bh, 0.0, self.column)
+        p_now = ps if ph.pressure_at == "surface" else p_bh
+        label, _, key = (where or f"{ph.kind}|{ph.kind}").partition("|")
+        for name in ("pressure_above", "pressure_below"):
+            thr = getattr(ph, name)
+            if thr is None:
+                continue
+            met = p_now >= thr if name == "pressure_above" else p_now <= thr
+            if met:
+                side = "above" if name == "pressure_above" else "below"
+                raise InputError(
+                    f"{label} ({ph.label}) starts at {p_now / 1e6:.3f} MPa "
+                    f"({ph.pressure_at}), already {side} its {name} = {thr / 1e6:.3f} MPa: "
+                    f"it would end at once", key=f"{key}.{name}",
+                    expected=f"a {name} {'above' if side == 'above' else 'below'} the "
+                             f"{p_now / 1e6:.3f} MPa the phase starts at")
 
     def _calibrate(self, phase: Phase, p_bh: float, where: str | None) -> float:
         if phase.zeta is not None:
