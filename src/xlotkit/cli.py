@@ -363,6 +363,8 @@ def _fmt_bar(p) -> str:
 
 
 def _pick_table(label: str, interp) -> str:
+    from xlotkit.interpret.picks.core import consensus_rule
+
     rp = interp.picks
     lines = [label, f"  pressure reference: {rp.record.reference.describe()}"]
     tests = rp.test_cycles
@@ -379,7 +381,7 @@ def _pick_table(label: str, interp) -> str:
             lines.append(f"    FCP {f.value / 1e5:.1f} bar, {lv}interval "
                          f"[{(f.low or f.value) / 1e5:.1f} - "
                          f"{(f.high or f.value) / 1e5:.1f}] ({f.quality}; "
-                         f"{f.details.get('rule', '')})")
+                         f"{consensus_rule(f)})")
         else:
             lines.append(f"    FCP: none ({f.message[:100]})")
         for m, p in c.fcp_methods().items():

@@ -64,7 +64,7 @@ from typing import Any, Literal
 import numpy as np
 
 from xlotkit.atomic import atomic_write, fresh_sibling_dir
-from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
+from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks, consensus_rule
 from xlotkit.interpret.picks.types import Pick
 
 __all__ = ["REPORT_FILES", "picks_table", "picks_to_dict", "write_pick_report"]
@@ -150,7 +150,7 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
         "fcp_high_bar": _bar(fcp.high) if fcp.found else None,
         "fcp_level": _num(fcp.level) if fcp.found else None,
         "fcp_quality": fcp.quality,
-        "fcp_rule": str(fcp.details.get("rule", "")),
+        "fcp_rule": consensus_rule(fcp),
         "fcp_message": fcp.message,
         "stiffness_bar_per_m3": _bar(cp.stiffness),
         "stiffness_stderr_bar_per_m3": _bar(cp.stiffness_stderr),
