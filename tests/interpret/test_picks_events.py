@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from phase_fixtures import dfit_arrays, to_record
 
 from xlotkit.interpret.phases import Cycle, Phase, Segmentation
 from xlotkit.interpret.picks.core import PickOptions, pick_cycle, pick_record
@@ -28,8 +29,6 @@ from xlotkit.interpret.picks.details import (
 from xlotkit.interpret.picks.pressurisation import pick_fbp, pick_isip
 from xlotkit.interpret.picks.shutin import SHUTIN_METHODS, g_function, pick_fcp_sqrt_t
 from xlotkit.record import Record
-
-from phase_fixtures import dfit_arrays, to_record  # noqa: I001  (tests/interpret, on sys.path)
 
 BAR = 1e5
 BPM = 0.158987294928 / 60.0  # oil barrel per minute -> m^3/s
@@ -250,7 +249,7 @@ def test_a_break_at_the_valve_opening_is_rejected_with_the_reason(valve):
 
 
 def test_a_closure_well_inside_the_shutin_is_kept_before_the_valve_zone():
-    rec, cyc, t_v, t_b = _shutin_then_valve(gc=1.2)
+    rec, cyc, _, _ = _shutin_then_valve(gc=1.2)
     pc = 160 * BAR - 4.0 * BAR * 1.2          # construction: closure pressure
     t_c = T_PUMP + float(np.interp(1.2, g_function(np.arange(0, 3000.0), T_PUMP),
                                    np.arange(0, 3000.0)))

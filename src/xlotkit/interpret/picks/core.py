@@ -128,10 +128,10 @@ __all__ = [
     "RecordPicks",
     "consensus_fcp",
     "consensus_rule",
-    "pick_cycle",
-    "reconcile_closures",
-    "pick_record",
     "is_test_cycle",
+    "pick_cycle",
+    "pick_record",
+    "reconcile_closures",
 ]
 
 #: Shut-in closure methods (the keys of :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS`).
@@ -642,7 +642,7 @@ def _run(entry: MethodEntry, record: Record, cycle: Cycle, *, window: _Window | 
     with captured() as said:
         try:
             out = entry.run(record, cycle, window=window, tangents=tangents, isip=isip)
-        except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
+        except Exception as exc:
             line = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
             return Pick.not_found(name, method,
                                   f"{method} failed: {type(exc).__name__}: {line}".rstrip(": "))

@@ -94,7 +94,13 @@ from xlotkit.interpret.picks.intervals import (
     correlation_inflation,
     find_transition,
 )
-from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect, window_spread
+from xlotkit.interpret.picks.models import (
+    LineFit,
+    fit_hinge,
+    fit_line,
+    intersect,
+    window_spread,
+)
 from xlotkit.interpret.picks.pressurisation import noise_level, quantum
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.record import ATMOSPHERE_PA, Record
@@ -290,7 +296,7 @@ def _line_or_none(x: np.ndarray, y: np.ndarray, m: np.ndarray) -> LineFit | None
         return None
     try:
         return fit_line(x[m], y[m])
-    except Exception:  # noqa: BLE001 -- a degenerate window just drops out of the spread
+    except Exception:
         return None
 
 
@@ -331,7 +337,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     else:
         try:
             h = fit_hinge(x, y, min_points=_MIN_POINTS)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             return f"two-line fit failed: {exc}"
         single = fit_line(x, y)
         sse1 = float(np.sum((y - single(x)) ** 2))

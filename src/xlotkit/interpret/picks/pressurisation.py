@@ -52,13 +52,27 @@ from xlotkit.interpret.picks.details import (
     PlateauDetails,
     PressurisationDetails,
 )
-from xlotkit.interpret.picks.intervals import budget, correlation_inflation, onset_profile
+from xlotkit.interpret.picks.intervals import (
+    budget,
+    correlation_inflation,
+    onset_profile,
+)
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line
 from xlotkit.interpret.picks.types import Pick, PickQuality
 from xlotkit.record import Record
 
-__all__ = ["pick_fbp", "pick_fpp", "pick_isip", "pick_lop", "pick_reopening", "pump_phases",
-           "no_shutin_reason", "shutin_phase", "shutin_time", "stop_pump"]
+__all__ = [
+    "no_shutin_reason",
+    "pick_fbp",
+    "pick_fpp",
+    "pick_isip",
+    "pick_lop",
+    "pick_reopening",
+    "pump_phases",
+    "shutin_phase",
+    "shutin_time",
+    "stop_pump",
+]
 
 #: Fewest samples a line fit is allowed to use.
 MIN_LINE_POINTS = 6
@@ -774,7 +788,7 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
             tail = float(pm[i_top] - np.min(pm[i_top:]))
             why += f" (fall after the highest pressure {tail / 1e5:.2f} bar)"
         return Pick.not_found("FBP", "max", why, details=details)
-    ipk, i_min, drop, ev = max(accepted, key=lambda e: (e[2], -e[0]))
+    ipk, _, drop, ev = max(accepted, key=lambda e: (e[2], -e[0]))
     value = float(pm[ipk])
     # The peak lies between samples: the pressure can have risen further, for up to one
     # sample interval, at the rate it was rising before the highest sample (a brittle
@@ -960,7 +974,7 @@ def early_decline(t: np.ndarray, p: np.ndarray, t_s: float, *,
     q = quantum(p)
     pm = _running_median(p, 5)
     best = None
-    for d in range(0, max(1, n // 3)):
+    for d in range(max(1, n // 3)):
         L = _early_length(pm, d, sig, q)
         if d + L > n:
             break

@@ -1,10 +1,32 @@
 """Fracture closure pressure (FCP) from a shut-in decline, by five methods.
 
-All methods work on the cycle's shut-in phase (the first ``shut_in`` phase after the cycle's
-last pump phase) and leave out the rapid drop right after pump stop (pipe friction, water
-hammer): fits start where the early decline line of
-:func:`~xlotkit.interpret.picks.pressurisation.early_decline` starts, so closure is never picked
-inside the pump-off drop.
+All methods work on the decline after the cycle's pump stop (the shut-in that follows the
+injection, :func:`~xlotkit.interpret.picks.decline.stop_pump`; a user window extends it over
+the phase boundaries it crosses, :func:`~xlotkit.interpret.picks.decline.decline`) and leave
+out the rapid drop right after pump stop (pipe friction, water hammer): fits start where the
+early decline line of :func:`~xlotkit.interpret.picks.pressurisation.early_decline` starts.
+
+Closure candidates at a boundary
+--------------------------------
+A decline ends where something is done to the well: a valve is opened for a bleed or a
+flowback, the pumps restart, the record ends. The segmentation places that boundary from
+filtered rates, so the operation often starts a few samples before it -- and its onset is a
+sharp, lasting change of slope, which is what closure looks like. Hence:
+
+* the **boundary zone** (:func:`~xlotkit.interpret.picks.boundary.boundary_zone`, reported as
+  :class:`~xlotkit.interpret.picks.details.BoundaryZone`) is left out of every fit: the last
+  :data:`~xlotkit.interpret.picks.boundary.BOUNDARY_MARGIN_SAMPLES` samples at least, and further back from where the decline
+  already moves at the next phase's own rate or jumps off its line (the operation's own
+  onset in this record, never a fixed number of seconds);
+* a slope break must be seen to **last** inside the analysed decline (:func:`_scan_break`
+  with ``confirm``): a new slope that runs straight into the next phase cannot be told from
+  the operation;
+* the break the scan finds on the whole decline, zone included, when it needs the zone,
+  is reported as a :class:`~xlotkit.interpret.picks.details.RejectedCandidate` "at the phase
+  boundary" with the reason, in the pick's ``details.rejected`` and its message;
+* a candidate above the ISIP or before the early decline starts is **inside the pump-off
+  drop** and rejected with that reason (:func:`_reject_reason`), as is one in the zone or
+  below the decline.
 
 Methods (``SHUTIN_METHODS``):
 
@@ -42,7 +64,8 @@ from typing import Any
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle
-from xlotkit.interpret.picks.decline import Decline, decline
+from xlotkit.interpret.picks.boundary import boundary_zone, window_slopes
+from xlotkit.interpret.picks.decline import decline
 from xlotkit.interpret.picks.details import (
     BilinearDetails,
     BoundaryZone,
@@ -74,8 +97,8 @@ from xlotkit.interpret.picks.pressurisation import (
     no_shutin_reason,
     noise_level,
     pump_phases,
-    quantum,
     quality,
+    quantum,
 )
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.record import Record
@@ -126,12 +149,6 @@ def g_function(dt, t_pump: float, alpha: float = 1.0):
 
 
 # ===================================================================== shared data
-#: Samples before the end of a decline that always count as its boundary zone: the phase
-#: boundary is placed from filtered rates, so the last sample or two may already belong to
-#: what follows.
-BOUNDARY_MARGIN_SAMPLES = 2
-
-
 @dataclass(frozen=True)
 class _Shut:
     t: np.ndarray           # analysed decline sample times [s] (up to the boundary zone)
@@ -166,138 +183,6 @@ def _isip_value(isip: Any) -> float | None:
     return float(isip)
 
 
-def _seg_fits(x: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares slope and residual sum of squares of ``y(x)`` over ``[lo, hi)``."""
-    slope, n, sxx = _window_slopes(x, y, lo, hi)
-    yc = y - y.mean()
-    z = np.zeros(1)
-    cy = np.concatenate([z, np.cumsum(yc)])
-    cyy = np.concatenate([z, np.cumsum(yc * yc)])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        syy = (cyy[hi] - cyy[lo]) - (cy[hi] - cy[lo]) ** 2 / n
-        sse = syy - np.nan_to_num(slope) ** 2 * np.nan_to_num(sxx)
-    return slope, np.maximum(sse, 0.0)
-
-
-def _release_onset(record: Record, t: np.ndarray, p: np.ndarray, j0: int,
-                   dec: Decline) -> int | None:
-    """First sample of the final stretch of a decline that already moves at the next
-    phase's rate, or None.
-
-    The rates are the record's own: ``r_shut`` the decline's (median absolute local slope
-    over its second half), ``r_next`` the next phase's over its first samples (a line
-    through ``2 MIN_LINE_POINTS`` of them). A stretch is the next phase's when its slope, in
-    the next phase's direction, is at least their geometric mean -- closer, on a log scale,
-    to the next phase than to the decline. The stretch is where a two-segment fit splits
-    the end of the decline best (the line before it over ``2 MIN_LINE_POINTS`` samples,
-    slower than that; the line after it to the end, at least that fast). None at the end of
-    the record, or when the next phase moves no faster than four times the decline.
-    """
-    n = t.size
-    w = 2 * MIN_LINE_POINTS
-    if dec.next_phase == "end of record" or dec.i1 + 3 > record.n or n - j0 < 2 * w:
-        return None
-    tn = record.t[dec.i1:dec.i1 + w]
-    pn = record.pressure[dec.i1:dec.i1 + w]
-    if tn.size < 3 or not np.all(np.isfinite(pn)) or np.ptp(tn) <= 0:
-        return None
-    r_next = float(fit_line(tn - tn[0], pn).slope)
-    x = t - t[0]
-    rates, _ = local_fit(x, p, 2.5, u=np.arange(n, dtype=float), min_points=5)
-    half = rates[j0 + (n - j0) // 2:]
-    half = half[np.isfinite(half)]
-    if half.size == 0:
-        return None
-    r_shut = float(np.median(np.abs(half)))
-    if not abs(r_next) > 4.0 * r_shut:
-        return None
-    gm = float(np.sqrt(max(r_shut, 1e-300) * abs(r_next)))
-    sgn = np.sign(r_next)
-    k = np.arange(j0 + w, n - 1)
-    if k.size == 0:
-        return None
-    s_b, sse_b = _seg_fits(x, p, k - w, k)
-    s_a, sse_a = _seg_fits(x, p, k, np.full(k.size, n))
-    ok = np.isfinite(s_a) & np.isfinite(s_b) & (sgn * s_a >= gm) & (sgn * s_b < gm)
-    if not ok.any():
-        return None
-    cost = np.where(ok, sse_a + sse_b, np.inf)
-    return int(k[int(np.argmin(cost))])
-
-
-def _boundary_zone(record: Record, t: np.ndarray, p: np.ndarray, j0: int, dec: Decline,
-                   sigma: float) -> BoundaryZone:
-    """The end of a decline where the operation that ends it already acts.
-
-    At least the last :data:`BOUNDARY_MARGIN_SAMPLES` samples. Further back when an
-    operation -- a valve opened for a bleed or flowback, the pumps restarting -- starts
-    before the phase boundary, which the segmentation places from filtered rates: from
-    where the decline already moves at the next phase's rate (:func:`_release_onset`), or
-    where the pressure **jumps** off its decline and never comes back to it. The zone is
-    then as long as the operation's own onset in this record, whatever its sampling or
-    pressure scale.
-
-    A jump at sample ``k``, against the line through the samples before it (scatter
-    ``s``): ``p[k]`` leaves the line by more than ``5 s`` (and two quantisation steps) and
-    every later sample stays off it on the same side by more than ``3 s``. A change of
-    slope -- which is how closure looks -- does that too, so a jump must also not be a
-    kink: the lines before and after ``k`` must not cross within the sample interval of the
-    jump (one interval either side, three standard errors of the crossing). Where the line
-    after is too uncertain to tell (its crossing's error exceeds a sample interval), the
-    samples after must scatter about it by more than ``5 s``: the water hammer of a valve
-    operation, which a closure does not make. Only the first of a run of fast samples is
-    looked at, and only when the samples before it lie on a straight line (within three
-    times the record's noise).
-    """
-    n = t.size
-    k_zone = max(j0 + 1, n - BOUNDARY_MARGIN_SAMPLES)
-    onset = "sample margin"
-    q = quantum(p[j0:])
-    if n - j0 >= 3 * MIN_LINE_POINTS:
-        d = np.diff(p[j0:])
-        c = float(np.median(d))
-        s_d = 1.4826 * float(np.median(np.abs(d - c)))
-        pre = 4.0 * max(s_d, np.sqrt(2.0) * sigma, q)
-        # candidates: jumps well beyond the sample-to-sample scatter (checked on local lines)
-        cand = j0 + 1 + np.flatnonzero(np.abs(d - c) > pre)
-        # only the first of a run of such samples can be the jump
-        cand = cand[np.r_[True, np.diff(cand) > 1]] if cand.size else cand
-        dt = t - t[0]
-        floor = max(sigma, q / np.sqrt(12.0))
-        for k in cand:
-            if k - j0 < 2 * MIN_LINE_POINTS or k >= k_zone:
-                continue
-            a = max(j0, k - max(2 * MIN_LINE_POINTS, (k - j0) // 4))
-            f = fit_line(dt[a:k], p[a:k])
-            if float(f.residual_std) > 3.0 * floor:
-                continue                # the samples before are no straight decline
-            scat = max(sigma, float(f.residual_std), 0.5 * q)
-            r = p[k:] - f(dt[k:])
-            if not (abs(r[0]) > max(5.0 * scat, 2.0 * q)
-                    and np.all(np.sign(r) == np.sign(r[0])) and np.all(np.abs(r) > 3.0 * scat)):
-                continue
-            b = min(n, k + 2 * MIN_LINE_POINTS)
-            if b - k >= 3:
-                g = fit_line(dt[k:b], p[k:b])
-                xs, sxs, _, _ = intersect(f, g)
-                step_dt = float(dt[k] - dt[k - 1])
-                sxs = float(sxs) if np.isfinite(sxs) else np.inf
-                kink = np.isfinite(xs) and (dt[k - 1] - step_dt - 3 * sxs <= xs
-                                            <= dt[k] + step_dt + 3 * sxs)
-                if kink and (sxs <= step_dt or float(g.residual_std) <= 5.0 * scat):
-                    continue
-            k_zone = int(k)
-            onset = "pressure step"
-            break
-    k_rel = _release_onset(record, t, p, j0, dec)
-    if k_rel is not None and k_rel < k_zone:
-        k_zone = max(k_rel, j0 + 1)
-        onset = f"{dec.next_phase.replace('_', '-')} rate"
-    return BoundaryZone(t_start=float(t[k_zone]), t_end=float(t[-1]), next_phase=dec.next_phase,
-                        t_boundary=float(dec.t_next), onset=onset, samples=int(n - k_zone))
-
-
 def _prepare(record: Record, cycle: Cycle, method: str, isip: Any,
              window: tuple[float, float] | None = None) -> tuple[_Shut | None, Pick | None]:
     """Shut-in data with the rapid drop and the boundary zone located, or a not-found pick
@@ -316,7 +201,7 @@ def _prepare(record: Record, cycle: Cycle, method: str, isip: Any,
     if isinstance(isip, Pick) and isip.window is not None:
         j0 = max(j0, int(np.searchsorted(t, isip.window[0])))
     sigma = noise_level(p)
-    zone = _boundary_zone(record, t, p, j0, dec, sigma)
+    zone = boundary_zone(record, t, p, j0, dec, sigma)
     end = int(np.searchsorted(t, zone.t_start))
     if end - j0 < MIN_SHUTIN_POINTS:
         return None, Pick.not_found(
@@ -351,7 +236,7 @@ def _reject_reason(sh: _Shut, value: float | None, t_pick: float | None = None) 
 
     Inside the pump-off drop: above the ISIP (the friction and water-hammer drop is not the
     fracture's decline) or before the early decline starts. At the phase boundary: in the
-    boundary zone (:func:`_boundary_zone`). Below the decline: lower than the lowest
+    boundary zone (:func:`~xlotkit.interpret.picks.boundary.boundary_zone`). Below the decline: lower than the lowest
     analysed pressure.
     """
     if value is None or not np.isfinite(value):
@@ -390,30 +275,6 @@ MIN_SLOPE_CHANGE = 0.1
 
 #: Window half-widths of the break scan, as fractions of the post-drop range of G.
 BREAK_SCALES = (0.03, 0.05, 0.08, 0.12)
-
-
-def _window_slopes(x: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least-squares slope of ``y(x)`` over samples ``[lo, hi)`` for every pair (O(n) sums).
-
-    Returns
-    -------
-    slope, n, sxx : ndarray
-        Slope (NaN for a degenerate window), number of samples and centred sum of squares of
-        x (the slope's variance is ``sigma^2 / sxx``).
-    """
-    xc, yc = x - x.mean(), y - y.mean()
-    z = np.zeros(1)
-    c1 = np.concatenate([z, np.cumsum(np.ones(x.size))])
-    cx, cy = np.concatenate([z, np.cumsum(xc)]), np.concatenate([z, np.cumsum(yc)])
-    cxx = np.concatenate([z, np.cumsum(xc * xc)])
-    cxy = np.concatenate([z, np.cumsum(xc * yc)])
-    n = c1[hi] - c1[lo]
-    sx, sy = cx[hi] - cx[lo], cy[hi] - cy[lo]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sxx = (cxx[hi] - cxx[lo]) - sx * sx / n
-        slope = np.where(sxx > 0, ((cxy[hi] - cxy[lo]) - sx * sy / n) / sxx, np.nan)
-    return slope, n, np.where(sxx > 0, sxx, np.nan)
 
 
 @dataclass(frozen=True)
@@ -469,9 +330,9 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     l1 = np.searchsorted(G, G - w, "left")
     l2 = np.searchsorted(G, G - 2 * w, "left")
     r1 = np.searchsorted(G, G + w, "right")
-    sL, nL, xL = _window_slopes(G, p, l1, i + 1)
-    sLL, nLL, xLL = _window_slopes(G, p, l2, np.maximum(l1, l2 + 1))
-    sR, nR, xR = _window_slopes(G, p, i, r1)
+    sL, nL, xL = window_slopes(G, p, l1, i + 1)
+    sLL, nLL, xLL = window_slopes(G, p, l2, np.maximum(l1, l2 + 1))
+    sR, nR, xR = window_slopes(G, p, i, r1)
     ok = ((nL >= MIN_LINE_POINTS) & (nLL >= MIN_LINE_POINTS) & (nR >= MIN_LINE_POINTS)
           & (G[np.clip(r1 - 1, 0, n - 1)] - G >= 0.6 * w) & (G - G[l2] >= 1.6 * w))
     jump, trend = sR - sL, sL - sLL
@@ -486,7 +347,7 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     # Lasting: where there is data a window further on, the slope there keeps at least half
     # the jump (a blip of the derivative is not closure).
     r2 = np.searchsorted(G, G + 2 * w, "right")
-    sRR, nRR, _ = _window_slopes(G, p, np.minimum(r1, n - 1), r2)
+    sRR, nRR, _ = window_slopes(G, p, np.minimum(r1, n - 1), r2)
     far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
     with np.errstate(invalid="ignore"):
         lasts = np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump)

@@ -36,6 +36,7 @@ from xlotkit.interpret.picks.details import (
     LineDetails,
     PressurisationDetails,
     ShutinDepartureDetails,
+    ShutinDetails,
     SlopeBreakDetails,
 )
 from xlotkit.interpret.picks.types import Pick
@@ -223,6 +224,13 @@ def plot_overview(record_picks: RecordPicks) -> Figure:
                 continue
             placer.add(ax, pk.t / 60, pk.value / _BAR, interval_text(pk),
                        _COLORS.get(pk.name, "k"))
+        rejected = {(r.t, r.pressure): r for pk in cp.picks if isinstance(pk.details, ShutinDetails)
+                    for r in pk.details.rejected}
+        for r in rejected.values():
+            lab = "closure candidate rejected (phase boundary / pump-off drop)"
+            ax.plot([r.t / 60], [r.pressure / _BAR], "X", color="0.4", ms=6, mew=0.5,
+                    mec="k", zorder=5, label=None if lab in seen else lab)
+            seen.add(lab)
         f = cp.fcp
         if f is not None and f.found and f.t is not None:
             if f.low is not None and f.high is not None:
@@ -340,6 +348,27 @@ def _closure_marks(ax, placer, cp, c, x, methods, y_of=None):
                    interval_text(pk, f"FCP ({METHOD_WORDS[m]})"), col)
 
 
+def _boundary_marks(ax, record: Record, pk: Pick | None, x_of) -> None:
+    """The boundary zone left out of the closure fits (its samples in grey) and the
+    candidates rejected there or in the pump-off drop (crosses), on the plot's abscissa
+    ``x_of(dt, details)`` of the time since pump stop."""
+    d = pk.details if pk is not None else None
+    if not isinstance(d, ShutinDetails) or d.t_shut_in is None or d.t_pump is None:
+        return
+    z = d.boundary
+    if z is not None:
+        sel = (record.t >= z.t_start) & (record.t <= z.t_end)
+        if sel.any():
+            ax.plot(x_of(record.t[sel] - d.t_shut_in, d), record.pressure[sel] / _BAR, ".",
+                    ms=3, color="0.55", zorder=3,
+                    label=f"boundary zone, left out ({z.onset}, before the "
+                          f"{z.next_phase.replace('_', '-')})")
+    for k, r in enumerate(d.rejected):
+        ax.plot([x_of(np.array([r.t - d.t_shut_in]), d)[0]], [r.pressure / _BAR], "X",
+                color="tab:red", ms=8, mec="k", mew=0.6, zorder=6,
+                label=None if k else f"closure candidate rejected ({r.where})")
+
+
 def _consensus_band(ax, cp: CyclePicks) -> None:
     f = cp.fcp
     if f is not None and f.found:
@@ -369,6 +398,7 @@ def plot_sqrt_t(record: Record, cp: CyclePicks) -> Figure:
             _window(ax, _x_of_t(c, x, pk.window[0]), _x_of_t(c, x, pk.window[1]))
         _hband(ax, pk, _METHOD_COLORS["sqrt_t"])
     _closure_marks(ax, placer, cp, c, x, ("sqrt_t",))
+    _boundary_marks(ax, record, pk, lambda d, sh: np.sqrt(np.maximum(d, 0.0)))
     _consensus_band(ax, cp)
     ax2 = ax.twinx()
     ax2.plot(x, -c["dp_dsqrt_t"] / _BAR, color="tab:red", lw=0.7, alpha=0.7,
@@ -411,6 +441,7 @@ def plot_g_function(record: Record, cp: CyclePicks, diagnosis=None) -> Figure:
             _window(ax, _x_of_t(c, G, pk.window[0]), _x_of_t(c, G, pk.window[1]))
         _hband(ax, pk, _METHOD_COLORS["g_function"])
     _closure_marks(ax, placer, cp, c, G, ("g_function", "compliance"))
+    _boundary_marks(ax, record, pk, lambda d, sh: g_function(d / sh.t_pump))
     ax2 = ax.twinx()
     ax2.plot(G, c["G_dp_dG"] / _BAR, color="tab:red", lw=1.1, label="G·dP/dG (right axis)")
     ax2.plot(G, -c["dp_dG"] / _BAR, color="tab:orange", lw=0.8, alpha=0.8,
