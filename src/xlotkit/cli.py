@@ -393,6 +393,13 @@ def _pick_table(label: str, interp) -> str:
                              f"{hi / 1e5:.1f}] {p.quality}")
             else:
                 lines.append(f"      {m:<16}        - {p.message[:70]}")
+    agreement = rp.consistency.closure
+    if agreement is not None and agreement.found:
+        lines.append(f"  closure of the record {agreement.value / 1e5:.1f} bar "
+                     f"[{agreement.low / 1e5:.1f} - {agreement.high / 1e5:.1f}]: "
+                     f"{agreement.message}")
+        for _, why in agreement.outliers:
+            lines.append(f"    outlier {why}")
     s = interp.stress
     if s.available:
         d = s.to_dict()

@@ -14,7 +14,10 @@ JSON schema (``picks.json``)
       "units": {"pressure": "bar", "stiffness": "bar/m3", "time": "s"},
       "consistency": {"fcp_mean_bar", "fcp_spread_bar", "fcp_relative_spread",
                       "t0_bar", "t0_low_bar", "t0_high_bar", "t0_level", "t0_message",
-                      "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change"},
+                      "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change",
+                      "closure_bar", "closure_low_bar", "closure_high_bar", "closure_level",
+                      "closure_cycles": [int, ...], "closure_message": str,
+                      "closure_outliers": [{"cycle": int, "reason": str}, ...]},
       "cycles": [
         {"index": int, "kind": str, "reference": str, "t_start_s": float, "t_end_s": float,
          "lop_bar", "fbp_bar", "reopening_bar", "fpp_bar", "isip_bar": float | null,
@@ -160,6 +163,18 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
     }
 
 
+def _closure_dict(a) -> dict[str, Any]:
+    """The record's closure from the cycles that agree (``closure_*`` keys)."""
+    if a is None:
+        return {"closure_bar": None, "closure_low_bar": None, "closure_high_bar": None,
+                "closure_level": None, "closure_cycles": [], "closure_message": "",
+                "closure_outliers": []}
+    return {"closure_bar": _bar(a.value), "closure_low_bar": _bar(a.low),
+            "closure_high_bar": _bar(a.high), "closure_level": _num(a.level),
+            "closure_cycles": list(a.cycles), "closure_message": a.message,
+            "closure_outliers": [{"cycle": i, "reason": why} for i, why in a.outliers]}
+
+
 def _diagnostics_dict(diagnostics) -> list[dict[str, Any]]:
     out = []
     for c in diagnostics.cycles:
@@ -215,6 +230,7 @@ def picks_to_dict(record_picks: RecordPicks, stress: Any = None,
             "t0_message": t0.message,
             "stiffness_slope_bar_per_m3_per_cycle": _bar(k.stiffness_slope),
             "stiffness_relative_change": _num(k.stiffness_relative_change),
+            **_closure_dict(k.closure),
         },
         "cycles": [_cycle_dict(cp) for cp in record_picks.cycles],
         "diagnostics": None if diagnostics is None else _diagnostics_dict(diagnostics),

@@ -76,8 +76,10 @@ def release_onset(record: Record, t: np.ndarray, p: np.ndarray, j0: int,
     the next phase's direction, is at least their geometric mean -- closer, on a log scale,
     to the next phase than to the decline. The stretch is where a two-segment fit splits
     the end of the decline best (the line before it over ``2 MIN_LINE_POINTS`` samples,
-    slower than that; the line after it to the end, at least that fast). None at the end of
-    the record, or when the next phase moves no faster than four times the decline.
+    slower than that; the line after it to the end, at least that fast), moved back over
+    the samples just before it that already move at least that fast (the onset of a valve
+    opened gradually). None at the end of the record, or when the next phase moves no
+    faster than four times the decline.
     """
     n = t.size
     w = 2 * MIN_LINE_POINTS
@@ -108,7 +110,12 @@ def release_onset(record: Record, t: np.ndarray, p: np.ndarray, j0: int,
     if not ok.any():
         return None
     cost = np.where(ok, sse_a + sse_b, np.inf)
-    return int(k[int(np.argmin(cost))])
+    j = int(k[int(np.argmin(cost))])
+    # the split sits where the new line fits best; the change starts where the samples
+    # first move at that rate (a valve opened gradually accelerates the fall)
+    while j - 2 >= j0 and sgn * (p[j - 1] - p[j - 2]) / (t[j - 1] - t[j - 2]) >= gm:
+        j -= 1
+    return j
 
 
 def boundary_zone(record: Record, t: np.ndarray, p: np.ndarray, j0: int, dec: Decline,

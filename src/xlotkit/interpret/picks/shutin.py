@@ -306,7 +306,7 @@ class _Break:
 
 
 def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float = 0.0,
-                confirm: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                confirm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Score of a slope break at every sample, for window ``w``.
 
     Three adjacent windows of width ``w`` in G: ``LL`` and ``L`` before the sample, ``R``
@@ -320,10 +320,14 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     so the standard error understates them).
 
     Lasting: a window further on (``RR``, to ``2 w`` after the sample) keeps at least half
-    the jump. With ``confirm`` that window must lie inside the data: a break whose new slope
-    is not seen to last before the data end (the next phase, the end of the record) cannot
-    be told from the operation that ends the decline; without it, a missing ``RR`` window
-    passes.
+    the jump; where the data end before it, that passes. With ``confirm`` (a width ``c`` of
+    G, the finest scan window) the new slope must also be seen to last inside the data:
+    the window from ``c`` to ``2 c`` after the sample (widened to ``MIN_LINE_POINTS``
+    samples where the sampling is sparser) must lie inside the data, and it and the first
+    ``c`` after the sample must each keep half the jump (the new slope holds from the break
+    on) -- a break whose new slope runs straight into the
+    data end (the next phase, the end of the record) cannot be told from the operation that
+    ends the decline.
     """
     n = G.size
     i = np.arange(n)
@@ -350,8 +354,24 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     sRR, nRR, _ = window_slopes(G, p, np.minimum(r1, n - 1), r2)
     far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
     with np.errstate(invalid="ignore"):
-        lasts = np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump)
-    good &= (far & lasts) if confirm else (~far | lasts)
+        good &= ~far | (np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump))
+    if confirm is not None:
+        c1 = np.searchsorted(G, G + confirm, "right")
+        c2 = np.searchsorted(G, G + 2 * confirm, "right")
+        # a window too narrow for a line is widened to MIN_LINE_POINTS samples (sparse
+        # sampling), which must then exist
+        wide = c2 - c1 < MIN_LINE_POINTS
+        c2 = np.where(wide, c1 + MIN_LINE_POINTS, c2)
+        seen = np.where(wide, c2 <= n,
+                        G[np.clip(c2 - 1, 0, n - 1)] - G >= 1.6 * confirm)
+        sC, nC, _ = window_slopes(G, p, np.minimum(c1, n - 1), np.minimum(c2, n))
+        # and from the break on: the first c after it (at least MIN_LINE_POINTS samples)
+        e1 = np.maximum(c1, i + MIN_LINE_POINTS)
+        sC0, nC0, _ = window_slopes(G, p, i, np.minimum(e1, n))
+        seen &= (nC >= MIN_LINE_POINTS) & (nC0 >= MIN_LINE_POINTS)
+        with np.errstate(invalid="ignore"):
+            good &= seen & (np.sign(jump) * (sC - sL) >= 0.5 * np.abs(jump)) \
+                & (np.sign(jump) * (sC0 - sL) >= 0.5 * np.abs(jump))
     return np.where(good, score, -np.inf), sL, sR
 
 
@@ -366,7 +386,8 @@ def _best_break(G: np.ndarray, p: np.ndarray, t: np.ndarray, sigma: float,
     q = quantum(p)
     best: _Break | None = None
     for f in BREAK_SCALES:
-        score, sL, sR = _scan_break(G, p, f * span, sigma, q, confirm=confirm)
+        score, sL, sR = _scan_break(G, p, f * span, sigma, q,
+                                    confirm=BREAK_SCALES[0] * span if confirm else None)
         k = int(np.argmax(score))
         if np.isfinite(score[k]) and (best is None or score[k] > best.score):
             best = _Break(k, float(G[k]), float(t[k]), f * span, float(sL[k]), float(sR[k]),
@@ -394,8 +415,9 @@ def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
         t_all, p_all = sh.t_all[sh.j0:], sh.p_all[sh.j0:]
         cand = _best_break(G_all, p_all, t_all, sh.sigma, confirm=False)
         if cand is not None:
-            # the new slope is confirmed over 2 w of G after the break (_scan_break)
-            t_conf = float(np.interp(cand.G + 1.6 * cand.w, G_all, t_all))
+            # the new slope is seen to last over 1.6 c of G after the break (_scan_break)
+            c = BREAK_SCALES[0] * float(G_all[-1] - G_all[0])
+            t_conf = float(np.interp(cand.G + 1.6 * c, G_all, t_all))
             if t_conf >= sh.zone.t_start or cand.t >= sh.zone.t_start:
                 z = sh.zone
                 what = ("the end of the record" if z.next_phase == "end of record"
