@@ -108,7 +108,7 @@ def test_shutin_breaks_of_a_growing_crack_are_rejected(evals):
 
 
 def test_a_real_shutin_closure_overrules_a_weak_flowback_break(evals):
-    """Scene 09's second shut-in closes the crack (a stiffening break, x3.2, +0.18 %); the
+    """Scene 09's second shut-in closes the crack (a stiffening break, x1.85, +0.19 %); the
     flowback after it starts closed, and its weak break (x1.18, 4.7 % low: the formation
     flowing back at k = 1e-16 m2) is rejected, not the shut-in's closure."""
     rej = _rejected("09_perm_1e-16_shutin")
