@@ -236,8 +236,8 @@ class BreakdownEvent:
     t, pressure : float
         Time [s] and pressure [Pa] of the peak (3-sample running median).
     drop : float
-        Fall of pressure after the peak while the rate held (at unchanged or lower rate)
-        [Pa].
+        Fall of pressure after the peak while the rate held (not cut) [Pa]; for a rejected
+        event the fall with the rate cut.
     rate : float or None
         Pump rate at the peak [m^3/s] (None without a rate log).
     accepted : bool

@@ -665,14 +665,16 @@ def _fbp_events(pm: np.ndarray, t: np.ndarray, q: np.ndarray | None, gap: np.nda
                 ) -> list[tuple[int, int, float, BreakdownEvent]]:
     """Every local peak of the smoothed pumping pressure and the fall after it.
 
-    For a peak at ``i`` the fall is followed until the pressure comes back above the peak,
-    the rate rises above the peak's rate (more friction, more pressure), or pumping
-    pauses. The fall must be established -- by ``thresh`` -- before the rate drops below the
-    peak's (less friction would explain it); once it is, a lower rate may continue it.
+    For a peak at ``i`` the fall is followed until the pressure comes back above the peak
+    or pumping pauses, and counted only while the rate holds: a cut of the rate (below the
+    peak's by more than :func:`_rate_tol`) ends it, since less friction explains a fall
+    from there on; a higher rate does not (more fluid and less pressure is breakdown
+    itself). A peak whose pressure falls only with a rate cut is kept as a rejected event.
 
     Returns
     -------
     list of (i_peak, i_min, drop, BreakdownEvent)
+        ``drop`` is the fall while the rate held [Pa].
     """
     n = pm.size
     out: list[tuple[int, int, float, BreakdownEvent]] = []
@@ -689,41 +691,35 @@ def _fbp_events(pm: np.ndarray, t: np.ndarray, q: np.ndarray | None, gap: np.nda
         seg = pm[i + 1:end]
         if seg.size == 0:
             continue
-        stop = seg.size
         above = np.flatnonzero(seg > pm[i])
-        if above.size:
-            stop = int(above[0])
-        qi = None
-        q_tol = 0.0
-        if q is not None:
-            qi = float(q[i])
-            q_tol = _rate_tol(qi, q_noise)
-            up = np.flatnonzero(q[i + 1:end] > qi + q_tol)
-            if up.size:
-                stop = min(stop, int(up[0]))
+        stop = int(above[0]) if above.size else seg.size
         if stop == 0:
             continue
         fall = pm[i] - seg[:stop]
-        drop = float(np.max(fall))
-        if drop < thresh:
+        drop_any = float(np.max(fall))
+        if drop_any < thresh:
             continue
-        k_est = int(np.argmax(fall >= thresh))      # the fall is established here
-        i_min = i + 1 + int(np.argmax(fall))
+        qi = None
+        held = stop
         if q is not None:
-            cut = np.flatnonzero(q[i:i + 2 + k_est] < qi - q_tol)
-            if cut.size:
-                ev = BreakdownEvent(t=float(t[i]), pressure=float(pm[i]), drop=drop, rate=qi,
-                                    accepted=False,
-                                    reason="the pressure fell with a cut of the pump rate "
-                                           f"(at t = {t[i + int(cut[0])]:.0f} s), not at "
-                                           "an unchanged rate")
-                out.append((int(i), i_min, drop, ev))
-                continue
-        why = ("fell at an unchanged or lower pump rate" if q is not None
-               else "fell while pumping (no rate logged)")
-        out.append((int(i), i_min, drop, BreakdownEvent(
-            t=float(t[i]), pressure=float(pm[i]), drop=drop, rate=qi, accepted=True,
-            reason=why)))
+            qi = float(q[i])
+            cut = np.flatnonzero(q[i + 1:i + 1 + stop] < qi - _rate_tol(qi, q_noise))
+            held = int(cut[0]) if cut.size else stop
+        drop = float(np.max(fall[:held])) if held > 0 else 0.0
+        if drop >= thresh:
+            i_min = i + 1 + int(np.argmax(fall[:held]))
+            why = ("fell at an unchanged or higher pump rate" if q is not None
+                   else "fell while pumping (no rate logged)")
+            out.append((int(i), i_min, drop, BreakdownEvent(
+                t=float(t[i]), pressure=float(pm[i]), drop=drop, rate=qi, accepted=True,
+                reason=why)))
+        else:
+            t_cut = float(t[i + 1 + held]) if i + 1 + held < t.size else float(t[-1])
+            out.append((int(i), i + 1 + int(np.argmax(fall)), drop, BreakdownEvent(
+                t=float(t[i]), pressure=float(pm[i]), drop=drop_any, rate=qi,
+                accepted=False,
+                reason=f"the pressure fell {drop_any / 1e5:.1f} bar only with a cut of the "
+                       f"pump rate (at t = {t_cut:.0f} s): less friction, not breakdown")))
     return out
 
 
@@ -731,17 +727,18 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
     """Formation breakdown pressure: the peak before the pressure falls at unchanged rate.
 
     Breakdown is an event, not the largest pumping pressure: the formation gives way and the
-    pressure falls while the pumps keep running at the same (or a lower) rate. At a raised
-    rate the pumping pressure can climb above the breakdown peak by friction alone, and at a
-    cut rate it falls by friction alone; neither is breakdown. The pumping samples of the
-    cycle (every pump phase) are smoothed by a 3-sample running median (a single spike does
-    not count) and every local peak is followed (:func:`_fbp_events`): the fall after it
-    counts when it exceeds ``max(5 sigma, 2 q, 0.5 % of the peak)`` (``sigma`` the noise,
-    ``q`` the quantisation step) before the rate dropped by more than
-    ``max(RATE_STEADY_FRACTION, 4 sigma_q / q_peak)`` of the peak's rate; the fall is
-    followed until the pressure is back above the peak, the rate rises, or pumping pauses.
-    The FBP is the peak with the largest such fall (the breakdown; later falls are smaller
-    propagation steps). Without a rate log every fall while pumping counts.
+    pressure falls while the pumps keep running at the same rate (or a higher one: more
+    fluid and less pressure is breakdown itself). At a raised rate the pumping pressure can
+    climb above the breakdown peak by friction alone, and at a cut rate it falls by friction
+    alone; neither is breakdown. The pumping samples of the cycle (every pump phase) are
+    smoothed by a 3-sample running median (a single spike does not count) and every local
+    peak is followed (:func:`_fbp_events`) until the pressure is back above it or pumping
+    pauses; its fall counts while the rate holds -- not below the peak's rate by more than
+    ``max(RATE_STEADY_FRACTION, 4 sigma_q / q_peak)`` of it -- and must exceed
+    ``max(5 sigma, 2 q, 0.5 % of the peak)`` (``sigma`` the noise, ``q`` the quantisation
+    step). The FBP is the peak with the largest such fall (the breakdown; later falls are
+    smaller propagation steps); a peak whose pressure falls only once the rate is cut is
+    reported as rejected. Without a rate log every fall while pumping counts.
 
     The interval spans the running-median peak and the raw maximum near it, ``± q/2``, and the
     rise the pressure could still make within one sample interval.
@@ -779,7 +776,7 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
         rejected = [e for e in events if not e[3].accepted]
         why = "no breakdown: the pressure never fell while pumping"
         if rate is not None:
-            why += " at an unchanged pump rate"
+            why += " with the pump rate held"
         if rejected:
             big = max(rejected, key=lambda e: e[2])
             why += (f" (the largest fall, {big[2] / 1e5:.1f} bar after {big[3].pressure / 1e5:.1f}"
@@ -810,7 +807,7 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
     qual: PickQuality = "good" if drop > 3 * thresh else "fair"
     msg = f"pressure fell {drop / 1e5:.1f} bar after the peak"
     if rate is not None:
-        msg += f" at an unchanged or lower pump rate ({ev.rate * 6e4:.0f} l/min at the peak)"
+        msg += f" at an unchanged or higher pump rate ({ev.rate * 6e4:.0f} l/min at the peak)"
     else:
         msg += " while pumping (no rate logged: a rate change cannot be ruled out)"
         if qual == "good":
