@@ -18,6 +18,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / ".." / "shared" / "data" / "field" / "AMS-01"
+if not DATA.is_dir():  # a worktree one level deeper than the main checkout
+    DATA = Path("/work/shared/data/field/AMS-01")
 OUT = ROOT / "docs" / "field" / "AMS-01"
 
 
@@ -41,10 +43,11 @@ def main() -> int:
         files = sorted(DATA.glob(f"{test}*"))
         surf = [f for f in files if "Cementing" in f.name][0]
         tag = test.replace(" ", "").lower()
-        fb = "cycle2_flowback_sqrt_p" if test == "XLOT 1" else "cycle3_flowback_sqrt_p"
+        fb = "cycle1_flowback_sqrt_p" if test == "XLOT 1" else "cycle3_flowback_sqrt_p"
         cases.append((f"{test} merged (downhole gauge)", tag + "_merged",
                       lambda fs=files: read_logs([str(f) for f in fs]),
-                      ("overview", "cycle1_g_function", "cycle1_sqrt_t", fb)))
+                      ("overview", "cycle1_g_function", "cycle2_g_function", "cycle1_sqrt_t",
+                       fb)))
         cases.append((f"{test} surface only", tag + "_surface",
                       lambda s=surf: read_log(str(s)), ("overview",)))
     lines = []
@@ -66,11 +69,32 @@ def main() -> int:
             fm = c.fcp_methods()
             row += [_fmt(fm.get(m)) for m in methods]
             lines.append("| " + " | ".join(row) + " |")
+        rejected = []
+        for c in rp.test_cycles:
+            seen = set()
+            for m in methods[:5]:
+                d = c.get("FCP", m).details
+                for r in getattr(d, "rejected", ()):
+                    if (r.t, r.pressure) not in seen:
+                        seen.add((r.t, r.pressure))
+                        rejected.append(f"cycle {c.index}: {r.describe()}")
+            z = getattr(c.get("FCP", "sqrt_t").details, "boundary", None)
+            if z is not None and z.onset != "sample margin":
+                rejected.append(f"cycle {c.index}: boundary zone {z.describe()}")
+        if rejected:
+            lines += ["", "Closure candidates rejected and boundary zones:", ""]
+            lines += [f"* {x}" for x in rejected]
+        a = rp.consistency.closure
+        if a is not None and a.found:
+            lines += ["", f"Closure of the record: {a.value / 1e5:.1f} bar "
+                          f"[{a.low / 1e5:.1f}–{a.high / 1e5:.1f}]: {a.message}."]
+            lines += [f"* outlier {why}" for _, why in a.outliers]
         s = interp.stress.to_dict()
         if s["available"]:
             lines += ["", f"σh at {s['target_tvd_m']:g} m: {s['sigma_h_bar']} bar "
                           f"[{s['sigma_h_low_bar']}–{s['sigma_h_high_bar']}] "
-                          f"({s['sigma_h_emw_sg']} sg), from cycle {s['source_cycle']}; "
+                          f"({s['sigma_h_emw_sg']} sg), from cycles "
+                          f"{', '.join(str(c) for c in s['source_cycles'])}; "
                           "assumed: " + "; ".join(s["assumptions"]) + "."]
         else:
             lines += ["", f"Stress: {s['message']}."]

@@ -369,6 +369,8 @@ def _fmt_bar(p) -> str:
 
 
 def _pick_table(label: str, interp) -> str:
+    from xlotkit.interpret.picks.core import consensus_rule
+
     rp = interp.picks
     lines = [label, f"  pressure reference: {rp.record.reference.describe()}"]
     tests = rp.test_cycles
@@ -385,7 +387,7 @@ def _pick_table(label: str, interp) -> str:
             lines.append(f"    FCP {f.value / 1e5:.1f} bar, {lv}interval "
                          f"[{(f.low or f.value) / 1e5:.1f} - "
                          f"{(f.high or f.value) / 1e5:.1f}] ({f.quality}; "
-                         f"{f.details.get('rule', '')})")
+                         f"{consensus_rule(f)})")
         else:
             lines.append(f"    FCP: none ({f.message[:100]})")
         for m, p in c.fcp_methods().items():
@@ -397,6 +399,13 @@ def _pick_table(label: str, interp) -> str:
                              f"{hi / 1e5:.1f}] {p.quality}")
             else:
                 lines.append(f"      {m:<16}        - {p.message[:70]}")
+    agreement = rp.consistency.closure
+    if agreement is not None and agreement.found:
+        lines.append(f"  closure of the record {agreement.value / 1e5:.1f} bar "
+                     f"[{agreement.low / 1e5:.1f} - {agreement.high / 1e5:.1f}]: "
+                     f"{agreement.message}")
+        for _, why in agreement.outliers:
+            lines.append(f"    outlier {why}")
     s = interp.stress
     if s.available:
         d = s.to_dict()

@@ -362,17 +362,16 @@ class Evaluation:
 def _depth_offset(interp) -> float | None:
     """Pressure [Pa] the interpreter adds to a pick at the gauge to have it at the open
     hole (0 for a bottom-hole record; the fluid column for a surface gauge), read off its
-    own sigma_h estimate: ``sigma_h - FCP`` of the cycle it took sigma_h from. None when
-    there is no estimate."""
+    own sigma_h estimate: ``sigma_h`` minus the record's closure it was made from (the
+    cycles that agree, :func:`~xlotkit.interpret.picks.agreement.agree_closures`). None
+    when there is no estimate."""
     from xlotkit.interpret.estimate import _gauge
 
     s = interp.stress
-    if not s.available or s.sigma_h is None or s.source_cycle is None:
+    closure = interp.picks.consistency.closure
+    if not s.available or s.sigma_h is None or closure is None or not closure.found:
         return None
-    src = next((c for c in interp.picks.cycles if c.index == s.source_cycle), None)
-    if src is None or src.fcp is None or not src.fcp.found:
-        return None
-    return float(s.sigma_h - _gauge(interp.record, src.fcp.value))
+    return float(s.sigma_h - _gauge(interp.record, closure.value))
 
 
 def _shutin_end(record, cycle, offset: float = 0.0) -> float | None:

@@ -364,8 +364,8 @@ def demo_summary(interp: Interpretation, truth: dict, sim_message: str,
     lines += ["", "## Stress"]
     if s.available:
         lines.append(f"sigma_h = {s.sigma_h / _BAR:.2f} bar "
-                     f"({s.sigma_h_low / _BAR:.2f} – {s.sigma_h_high / _BAR:.2f}) from cycle "
-                     f"{s.source_cycle}; {ref} {sh / _BAR:.2f} bar "
+                     f"({s.sigma_h_low / _BAR:.2f} – {s.sigma_h_high / _BAR:.2f}) from cycle(s) "
+                     f"{', '.join(str(c) for c in s.source_cycles)}; {ref} {sh / _BAR:.2f} bar "
                      f"({100 * (s.sigma_h - sh) / sh:+.2f} %).")
         if s.t0 is not None:
             lines.append(f"T0 = FBP − Pr = {s.t0 / _BAR:.2f} bar "

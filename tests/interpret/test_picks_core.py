@@ -18,6 +18,7 @@ from xlotkit.interpret.picks.core import (
     pick_record,
     reconcile_closures,
 )
+from xlotkit.interpret.picks.details import FlowbackDetails, SlopeBreakDetails
 from xlotkit.interpret.picks.types import Pick
 
 BAR = 1e5
@@ -77,7 +78,7 @@ def test_consensus_prefers_good_flowback():
              fcp("flowback_p_v", 100.4, half=0.5)]
     c = consensus_fcp(picks)
     assert c.method == "consensus" and c.value == 100 * BAR
-    assert c.details["rule"] == "flowback" and c.details["chosen"] == "flowback_sqrt_p"
+    assert c.details.rule == "flowback" and c.details.chosen == "flowback_sqrt_p"
     # The interval covers both good flowback picks.
     assert c.low == pytest.approx(99.5 * BAR) and c.high == pytest.approx(100.9 * BAR)
 
@@ -86,10 +87,10 @@ def test_consensus_falls_back_to_shutin_median_when_flowback_is_poor():
     picks = [fcp("tangent", 110), fcp("sqrt_t", 106, "fair"), fcp("g_function", 104),
              fcp("bilinear", 90, "poor"), fcp("flowback_sqrt_p", 80, "poor")]
     c = consensus_fcp(picks)
-    assert c.details["rule"] == "shut-in median"
+    assert c.details.rule == "shut-in median"
     assert c.value == pytest.approx(106 * BAR)
     assert c.low == pytest.approx(103 * BAR) and c.high == pytest.approx(111 * BAR)
-    assert set(c.details["methods"]) == {"tangent", "sqrt_t", "g_function"}
+    assert set(c.details.methods) == {"tangent", "sqrt_t", "g_function"}
     assert c.quality == "good"  # three methods within 5 % of the median
 
 
@@ -139,7 +140,7 @@ def test_pick_cycle_on_analytic_flowback_record():
     assert set(fb_m for fb_m in ("flowback_sqrt_p", "flowback_p_v")) <= set(fmeth)
     assert fmeth["flowback_sqrt_p"].value == pytest.approx(100 * BAR, rel=5e-3)
     # Consensus follows the good flowback pick.
-    assert cp.fcp.details["rule"] == "flowback"
+    assert cp.fcp.details.rule == "flowback"
     assert cp.fcp.value == pytest.approx(100 * BAR, rel=5e-3)
     # LOP / FBP / FPP / ISIP picks are present (found or with a reason), never invented.
     names = {pk.name for pk in cp.picks}
@@ -181,14 +182,16 @@ def _pump_shut_flow():
 
 def _shut(method, value, signature=None, ratio=None):
     p = fcp(method, value)
-    d = {} if signature is None else {"closure_signature": signature, "slope_ratio": ratio}
+    d = None if signature is None else SlopeBreakDetails(x_name="G", closure_signature=signature,
+                                                         slope_ratio=ratio)
     return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details=d)
 
 
 def _flow(method, value, ratio):
     p = fcp(method, value)
-    key = "slope_ratio" if method == "flowback_sqrt_p" else "stiffness_ratio"
-    return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details={key: ratio})
+    d = FlowbackDetails(slope_ratio=ratio) if method == "flowback_sqrt_p" else \
+        FlowbackDetails(stiffness_ratio=ratio)
+    return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details=d)
 
 
 def test_a_flattening_shutin_break_above_a_flowback_closure_is_rejected():
@@ -199,7 +202,8 @@ def test_a_flattening_shutin_break_above_a_flowback_closure_is_rejected():
     out, notes = reconcile_closures(picks, _pump_shut_flow())
     by = {p.method: p for p in out}
     assert not by["sqrt_t"].found and not by["bilinear"].found
-    assert by["sqrt_t"].details["rejected_value"] == pytest.approx(307.5 * BAR)
+    assert by["sqrt_t"].details.rejected_value == pytest.approx(307.5 * BAR)
+    assert by["sqrt_t"].details.original.closure_signature == "flattening"
     assert "still open" in by["sqrt_t"].message and "flattening" in by["sqrt_t"].message
     assert by["flowback_sqrt_p"].found and by["flowback_p_v"].found
     assert len(notes) == 2
@@ -229,7 +233,7 @@ def test_reconcile_leaves_agreeing_unrelated_and_user_fixed_picks_alone():
     # a break the other flowback method does not see is no evidence; equal (none): both kept
     lone = [_shut("sqrt_t", 110.0, "flattening", 0.5), _flow("flowback_sqrt_p", 48.0, 2.3),
             Pick.not_found("FCP", "flowback_p_v", "only one straight line",
-                           details={"single_line": True})]
+                           details=FlowbackDetails(single_line=True))]
     out, notes = reconcile_closures(lone, cyc)
     assert out == lone and "both kept" in notes[0]
     # a fixed window keeps the pick, with a note

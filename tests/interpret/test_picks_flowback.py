@@ -122,11 +122,11 @@ def test_flowback_recovers_closure_on_exact_choke_record(reference):
     assert sq.low <= truth <= sq.high or abs(sq.value - truth) < 1e-3 * truth
     assert sq.t == pytest.approx(300 + 120 + t_c, abs=2.0)
     # Stiffnesses are the imposed inverse compliances.
-    assert pv.details["stiffness_open"] == pytest.approx(1 / 3e-8, rel=1e-3)
-    assert pv.details["stiffness_closed"] == pytest.approx(1 / 1e-8, rel=1e-3)
+    assert pv.details.stiffness_open == pytest.approx(1 / 3e-8, rel=1e-3)
+    assert pv.details.stiffness_closed == pytest.approx(1 / 1e-8, rel=1e-3)
     assert sq.quality == "good" and pv.quality == "good"
     # The sqrt(p) slopes are -S zeta / 2.
-    assert sq.details["line_open"]["slope"] == pytest.approx(-0.5 * 5.3e-7 / 3e-8, rel=1e-3)
+    assert sq.details.line_open.slope == pytest.approx(-0.5 * 5.3e-7 / 3e-8, rel=1e-3)
 
 
 def test_flowback_with_noise_stays_within_interval():
@@ -176,12 +176,12 @@ def test_returned_volume_from_rate_or_cumulative_volume():
     rate[fb.i0:fb.i1] = np.gradient(v, t)
     from_rate = rec.replace(return_volume=None, return_rate=rate)
     _, pv = pick_fcp_flowback(from_rate, cyc)
-    assert pv.details["volume_source"] == "integrated return_rate"
+    assert pv.details.volume_source == "integrated return_rate"
     assert pv.value == pytest.approx(100 * BAR, rel=5e-3)
     net = rec.volume - rec.return_volume
     from_net = rec.replace(return_volume=None, volume=net)
     _, pv = pick_fcp_flowback(from_net, cyc)
-    assert pv.details["volume_source"] == "fall of cumulative volume"
+    assert pv.details.volume_source == "fall of cumulative volume"
     assert pv.value == pytest.approx(100 * BAR, rel=5e-3)
     bare = rec.replace(return_volume=None, volume=None)
     sq, pv = pick_fcp_flowback(bare, cyc)

@@ -74,8 +74,8 @@ def test_lop_and_stiffness(kw):
     assert pk.found and pk.name == "LOP"
     assert abs(pk.value - LOP) < 1.5 * BAR
     assert pk.low <= pk.value <= pk.high
-    assert pk.details["stiffness"] == pytest.approx(K, rel=0.01)
-    assert pk.details["stiffness_stderr"] < 0.01 * K
+    assert pk.details.stiffness == pytest.approx(K, rel=0.01)
+    assert pk.details.stiffness_stderr < 0.01 * K
     # The toe (first ~30 l) is left out of the straight stretch.
     assert pk.window[0] > 20.0
 
@@ -97,8 +97,8 @@ def test_lop_user_window_and_reopening_name():
 def test_lop_without_rate_uses_time():
     rec, cyc, _ = pressurisation(noise=0.02 * BAR)
     pk = pick_lop(rec.replace(rate=None), cyc)
-    assert pk.found and pk.details["stiffness"] is None
-    assert pk.details["pressurisation_rate"] == pytest.approx(K * RATE, rel=0.01)
+    assert pk.found and pk.details.stiffness is None
+    assert pk.details.pressurisation_rate == pytest.approx(K * RATE, rel=0.01)
 
 
 @pytest.mark.parametrize("quant", [0.0, BAR])
@@ -125,7 +125,7 @@ def test_isip_excludes_friction_drop(kw):
     assert pk.found
     assert abs(pk.value - 160 * BAR) < 0.5 * BAR
     assert pk.low - 0.2 * BAR <= 160 * BAR <= pk.high + 0.2 * BAR
-    assert pk.details["friction_drop"] == pytest.approx(15 * BAR, abs=1 * BAR)
+    assert pk.details.friction_drop == pytest.approx(15 * BAR, abs=1 * BAR)
     assert pk.window[0] > 600.0
 
 

@@ -63,8 +63,8 @@ def test_g_function_finds_closure_and_normal_diagnosis(kw):
     assert pk.found and pk.name == "FCP" and pk.method == "g_function"
     assert abs(pk.value - PC) < 0.01 * PC
     assert pk.low - 0.3 * BAR <= PC <= pk.high + 0.3 * BAR
-    assert pk.details["diagnosis"] == "normal"
-    assert pk.details["G_pick"] == pytest.approx(1.5, abs=0.1)
+    assert pk.details.diagnosis == "normal"
+    assert pk.details.x_name == "G" and pk.details.x_pick == pytest.approx(1.5, abs=0.1)
     # Closure is inside the decline, well after the pump-off drop.
     assert pk.t > 600.0 + 100.0
 
@@ -94,12 +94,12 @@ def test_tangent_and_bilinear_on_a_flattening_decline():
     assert bl.found and abs(bl.value - PC) < 0.05 * PC
     # Fixed lines are honoured.
     fixed = pick_fcp_tangent(rec, cyc, lines=((620.0, 700.0), (2000.0, 3000.0)))
-    assert fixed.found and fixed.details["late_window"][0] >= 2000.0
+    assert fixed.found and fixed.details.late_window[0] >= 2000.0
 
 
 def test_pressure_dependent_leakoff_is_diagnosed():
     pk = pick_fcp_g_function(*decline(hump=3 * BAR, noise=0.02 * BAR))
-    assert pk.details["diagnosis"] == "pressure_dependent_leakoff"
+    assert pk.details.diagnosis == "pressure_dependent_leakoff"
     assert pk.found and abs(pk.value - (PC - 3 * BAR)) < 0.03 * PC
 
 
@@ -143,13 +143,13 @@ def test_closure_at_the_break_of_a_curved_decline(kw):
 
 
 def test_diagnosis_follows_the_curvature():
-    assert pick_fcp_g_function(*decline(hump=3 * BAR, noise=0.02 * BAR)).details[
-        "diagnosis"] == "pressure_dependent_leakoff"
+    assert pick_fcp_g_function(*decline(hump=3 * BAR, noise=0.02 * BAR)).details.diagnosis \
+        == "pressure_dependent_leakoff"
     # |dP/dG| growing towards closure: G dP/dG lies below the line through the origin
     # tangent to it at closure (a constant-permeability wall leak looks like height
     # recession).
-    assert pick_fcp_g_function(*decline(wall=0.02 * BAR, noise=0.02 * BAR)).details[
-        "diagnosis"] == "height_recession"
+    assert pick_fcp_g_function(*decline(wall=0.02 * BAR, noise=0.02 * BAR)).details.diagnosis \
+        == "height_recession"
 
 
 def test_no_shutin_phase():

@@ -91,10 +91,17 @@ class StressSummary:
     assumptions : tuple of str
         Every default that was used.
     source_cycle : int or None
-        Cycle whose FCP gave sigma_h.
+        The agreeing cycle whose closure is nearest the record's (for reports naming one).
     omitted : tuple of str
         What the estimate left out and why (sigma_H, the stress polygon's regime), in
         words.
+    source_cycles : tuple of int
+        The cycles whose closures agree and gave sigma_h
+        (:func:`~xlotkit.interpret.picks.agreement.agree_closures`).
+    outliers : tuple of (int, str)
+        Cycles with a closure that disagrees, each with its reason.
+    sigma_h_message : str
+        How sigma_h was formed from the cycles.
     """
 
     available: bool
@@ -118,6 +125,9 @@ class StressSummary:
     pore_pressure_high: float | None = None
     pore_pressure_source: str = "default"
     omitted: tuple[str, ...] = ()
+    source_cycles: tuple[int, ...] = ()
+    outliers: tuple[tuple[int, str], ...] = ()
+    sigma_h_message: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict in field units (bar, m, sg)."""
@@ -133,6 +143,9 @@ class StressSummary:
             "message": self.message,
             "target_tvd_m": self.target_tvd,
             "source_cycle": self.source_cycle,
+            "source_cycles": list(self.source_cycles),
+            "outlier_cycles": [{"cycle": i, "reason": why} for i, why in self.outliers],
+            "sigma_h_message": self.sigma_h_message,
             "sigma_h_bar": bar(self.sigma_h),
             "sigma_h_low_bar": bar(self.sigma_h_low),
             "sigma_h_high_bar": bar(self.sigma_h_high),
@@ -155,22 +168,6 @@ class StressSummary:
         }
 
 
-_QUALITY = {"good": 0, "fair": 1, "poor": 2, "none": 3}
-
-
-def _fcp_rank(cycle_picks) -> tuple[int, int, int]:
-    """Order in which cycles are trusted for sigma_h (smallest first).
-
-    A closure seen on flowback (system stiffness) beats one inferred from a shut-in decline,
-    because it needs no leak-off model; then the better quality; then the later cycle (a
-    grown fracture closes more cleanly than the first, near-wellbore one).
-    """
-    f = cycle_picks.fcp
-    methods = f.details.get("methods", ()) if f.details else ()
-    from_flowback = any(str(m).startswith("flowback") for m in methods)
-    return (0 if from_flowback else 1, _QUALITY.get(f.quality, 3), -cycle_picks.index)
-
-
 def _gauge(record: Record, p: float | None) -> float | None:
     """Pick value on an absolute reference -> gauge (relative to atmosphere)."""
     if p is None:
@@ -182,8 +179,10 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
                     diagnostics=None) -> StressSummary:
     """Turn a record's picks into sigma_h, T0, sigma_H and a faulting regime.
 
-    sigma_h is the consensus FCP of the most trusted test cycle (:func:`_fcp_rank`: flowback
-    closure first, then quality, then the later cycle), moved to
+    sigma_h is the record's closure from the test cycles that agree
+    (:func:`~xlotkit.interpret.picks.agreement.agree_closures`: the largest group of cycles
+    whose closure intervals share a pressure, the median of their closures and the union of
+    their intervals; every other cycle is named as an outlier with its reason), moved to
     the target depth with the well-fluid hydrostatics (:class:`~xlotkit.interpret.stress.
     DepthModel`; closure picks are static pressures, so no friction). T0 = FBP - Pr. sigma_H
     from Eq. C.19 (reopening) with Monte-Carlo intervals; the estimate is placed in the stress
@@ -212,11 +211,9 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     ref = record.reference
     assumptions: list[str] = []
 
-    tests = [c for c in record_picks.cycles if c.fcp is not None and c.fcp.found]
-    if not tests:
+    agreement = record_picks.consistency.closure
+    if agreement is None or not agreement.found:
         return StressSummary(False, "no fracture closure was picked in any test cycle")
-    src = min(tests, key=_fcp_rank)
-    fcp = src.fcp
 
     target = inputs.target_tvd
     if target is None:
@@ -252,9 +249,11 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     def at_depth(p):
         return None if p is None else _gauge(record, p) + dp
 
-    sh = at_depth(fcp.value)
-    sh_lo = at_depth(fcp.low if fcp.low is not None else fcp.value)
-    sh_hi = at_depth(fcp.high if fcp.high is not None else fcp.value)
+    sh = at_depth(agreement.value)
+    sh_lo = at_depth(agreement.low)
+    sh_hi = at_depth(agreement.high)
+    if len(agreement.cycles) > 1 or agreement.outliers:
+        assumptions.append("sigma_h from the cycles that agree: " + agreement.message)
 
     p0 = inputs.pore_pressure
     p0_lo = p0_hi = None
@@ -335,6 +334,7 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     return StressSummary(
         True, "", target, sh, sh_lo, sh_hi,
         t0v, t0.low if t0.found else None, t0.high if t0.found else None,
-        sigma_H, p0, sv, inputs.mu, regime, tuple(assumptions), src.index, estimates,
-        p0_lo, p0_hi, p0_src, tuple(omitted),
+        sigma_H, p0, sv, inputs.mu, regime, tuple(assumptions), agreement.representative,
+        estimates, p0_lo, p0_hi, p0_src, tuple(omitted), agreement.cycles,
+        agreement.outliers, agreement.message,
     )

@@ -15,7 +15,10 @@ JSON schema (``picks.json``)
       "reading_notes": [str, ...],          # what the reader decided about cells
       "consistency": {"fcp_mean_bar", "fcp_spread_bar", "fcp_relative_spread",
                       "t0_bar", "t0_low_bar", "t0_high_bar", "t0_level", "t0_message",
-                      "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change"},
+                      "stiffness_slope_bar_per_m3_per_cycle", "stiffness_relative_change",
+                      "closure_bar", "closure_low_bar", "closure_high_bar", "closure_level",
+                      "closure_cycles": [int, ...], "closure_message": str,
+                      "closure_outliers": [{"cycle": int, "reason": str}, ...]},
       "cycles": [
         {"index": int, "kind": str, "reference": str, "t_start_s": float, "t_end_s": float,
          "lop_bar", "fbp_bar", "reopening_bar", "fpp_bar", "isip_bar": float | null,
@@ -66,7 +69,7 @@ import numpy as np
 
 from xlotkit.atomic import atomic_write, fresh_sibling_dir
 from xlotkit.interpret.io import reading_notes
-from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks
+from xlotkit.interpret.picks.core import FCP_METHODS, CyclePicks, RecordPicks, consensus_rule
 from xlotkit.interpret.picks.types import Pick
 
 __all__ = ["REPORT_FILES", "picks_table", "picks_to_dict", "write_pick_report"]
@@ -152,7 +155,7 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
         "fcp_high_bar": _bar(fcp.high) if fcp.found else None,
         "fcp_level": _num(fcp.level) if fcp.found else None,
         "fcp_quality": fcp.quality,
-        "fcp_rule": str(fcp.details.get("rule", "")),
+        "fcp_rule": consensus_rule(fcp),
         "fcp_message": fcp.message,
         "stiffness_bar_per_m3": _bar(cp.stiffness),
         "stiffness_stderr_bar_per_m3": _bar(cp.stiffness_stderr),
@@ -160,6 +163,18 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
         "picks": [_pick_row(p) for p in cp.picks],
         "notes": list(cp.notes),
     }
+
+
+def _closure_dict(a) -> dict[str, Any]:
+    """The record's closure from the cycles that agree (``closure_*`` keys)."""
+    if a is None:
+        return {"closure_bar": None, "closure_low_bar": None, "closure_high_bar": None,
+                "closure_level": None, "closure_cycles": [], "closure_message": "",
+                "closure_outliers": []}
+    return {"closure_bar": _bar(a.value), "closure_low_bar": _bar(a.low),
+            "closure_high_bar": _bar(a.high), "closure_level": _num(a.level),
+            "closure_cycles": list(a.cycles), "closure_message": a.message,
+            "closure_outliers": [{"cycle": i, "reason": why} for i, why in a.outliers]}
 
 
 def _diagnostics_dict(diagnostics) -> list[dict[str, Any]]:
@@ -218,6 +233,7 @@ def picks_to_dict(record_picks: RecordPicks, stress: Any = None,
             "t0_message": t0.message,
             "stiffness_slope_bar_per_m3_per_cycle": _bar(k.stiffness_slope),
             "stiffness_relative_change": _num(k.stiffness_relative_change),
+            **_closure_dict(k.closure),
         },
         "cycles": [_cycle_dict(cp) for cp in record_picks.cycles],
         "diagnostics": None if diagnostics is None else _diagnostics_dict(diagnostics),

@@ -47,6 +47,7 @@ from xlotkit.interpret.faulting import (
     stress_polygon,
     thrust_belt_bounds,
 )
+from xlotkit.interpret.picks.details import AtDepthDetails
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.interpret.stress_checks import (
     _arr,
@@ -419,8 +420,8 @@ def pick_at_depth(pick: Pick, model: DepthModel, *, rate: float | None = None) -
                    value=pick.value + dp,
                    low=None if pick.low is None else pick.low + dp,
                    high=None if pick.high is None else pick.high + dp,
-                   details={**pick.details, "depth_shift": dp,
-                            "target_tvd": model.target_tvd})
+                   details=AtDepthDetails(original=pick.details, depth_shift=dp,
+                                          target_tvd=float(model.target_tvd)))
 
 
 def to_emw(p, tvd):

@@ -295,6 +295,8 @@ def _pick_cells(prefix: str, p) -> dict[str, Any]:
 
 
 def _rows(task: GroupTask, interp) -> list[dict[str, Any]]:
+    from xlotkit.interpret.picks.core import consensus_rule
+
     rec = interp.record
     s = interp.stress
     log_cols: dict[str, Any] = {
@@ -332,7 +334,7 @@ def _rows(task: GroupTask, interp) -> list[dict[str, Any]]:
         for name in _PICKS:
             row.update(_pick_cells(name, c.get(name)))
         row.update(_pick_cells("fcp", c.fcp))
-        row["fcp_rule"] = str(c.fcp.details.get("rule", "")) if c.fcp.found else ""
+        row["fcp_rule"] = consensus_rule(c.fcp) if c.fcp.found else ""
         for m, p in c.fcp_methods().items():
             row.update(_pick_cells(f"fcp_{m}", p))
         row["stiffness_bar_per_m3"] = c.stiffness / _BAR if c.stiffness is not None else None

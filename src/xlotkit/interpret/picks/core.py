@@ -7,15 +7,21 @@ tensile strength ``T0 = FBP - Pr`` and the trend of the pressurisation stiffness
 
 What is picked where
 --------------------
-* Only ``lot`` and ``xlot`` cycles get pressure picks. Line and casing tests only get their
-  pressurisation stiffness (a useful check of the well compliance).
-* The first test cycle: ``LOP``; ``FBP`` when it is an ``xlot`` (the pick itself reports "not
-  found" if the formation did not break down). Later test cycles: ``Pr`` (reopening).
-* ``xlot`` cycles: ``FPP``. Every test cycle: ``ISIP``.
-* Fracture closure (``FCP``): every shut-in method of
-  :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a ``shut_in``
-  phase, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`) when it has a
-  ``flowback`` phase.
+The picks are keyed on what a cycle has, not on its kind, except that cycles that open no
+fracture (:data:`NON_FRACTURE_KINDS`: line and casing tests, ``other``) get no fracture
+picks; every other kind is a *test cycle* (:func:`is_test_cycle`: LOT, XLOT, DFIT,
+step-rate test, stimulation ...).
+
+* ``ISIP``: every cycle with a pump stop followed by a shut-in, whatever its kind (for a line
+  or casing test it is the pressure the system held).
+* The first test cycle: ``LOP`` and ``FBP`` (the breakdown event; the pick reports "not
+  found" when the pressure never fell at an unchanged rate). Later test cycles: ``Pr``
+  (reopening). Every test cycle: ``FPP``.
+* Fracture closure (``FCP``) in test cycles: every shut-in method of
+  :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a pump stop
+  followed by a shut-in, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`)
+  when it has a ``flowback`` phase.
+* Every cycle: the pressurisation stiffness (a useful check of the well compliance).
 
 Every method is an entry of :data:`METHODS` (:class:`MethodEntry`: pick name, method name,
 the phase it reads, and a callable of the one :class:`PickMethod` signature), built from
@@ -53,7 +59,7 @@ flowback's lies entirely below the shut-in's, they contradict each other: the fl
 break says the fracture was still open when the shut-in ended, the shut-in's says it had
 closed. :func:`reconcile_closures` keeps the side with the stronger closure evidence and
 turns the other side's contradicting picks into "not found" with the reason (their values
-stay in ``details["rejected_value"]``):
+and details stay in :class:`~xlotkit.interpret.picks.details.RejectedDetails`):
 
 * the flowback's evidence is its stiffness contrast (closed / open slope, ``slope_ratio`` or
   ``stiffness_ratio``: the fracture's compliance leaving the system);
@@ -66,6 +72,18 @@ stay in ``details["rejected_value"]``):
   (one straight line) is uncorroborated and counts as no evidence.
 
 With equal evidence (none on either side) both sides are kept and a note says so.
+
+A shut-in break at the phase boundary (where the valve opens for the flowback) carries no
+evidence either: the shut-in methods reject such candidates themselves
+(:mod:`~xlotkit.interpret.picks.shutin`, "Closure candidates at a boundary"), so they never
+reach this rule and can never overrule a flowback break.
+
+Across cycles
+-------------
+:class:`Consistency` holds the record's closure from the cycles that agree
+(:func:`~xlotkit.interpret.picks.agreement.agree_closures`: the largest group of cycles
+whose closure intervals share a pressure, its median, the union of its intervals) and names
+every other cycle as an outlier with its reason.
 
 Picks whose window or tangents the user fixed are never rejected (a note records the
 contradiction).
@@ -80,8 +98,17 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
-from xlotkit.interpret.phases import Cycle, Segmentation, segment
+from xlotkit.interpret.phases import Cycle, Phase, Segmentation, segment
 from xlotkit.interpret.picks import pressurisation, shutin
+from xlotkit.interpret.picks.agreement import ClosureAgreement, agree_closures
+from xlotkit.interpret.picks.details import (
+    ConsensusDetails,
+    FlowbackDetails,
+    PressurisationDetails,
+    RejectedDetails,
+    SlopeBreakDetails,
+    T0Details,
+)
 from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
 from xlotkit.interpret.picks.models import fit_line
 from xlotkit.interpret.picks.types import Pick
@@ -100,9 +127,11 @@ __all__ = [
     "PickOptions",
     "RecordPicks",
     "consensus_fcp",
+    "consensus_rule",
+    "is_test_cycle",
     "pick_cycle",
-    "reconcile_closures",
     "pick_record",
+    "reconcile_closures",
 ]
 
 #: Shut-in closure methods (the keys of :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS`).
@@ -111,8 +140,16 @@ SHUTIN_METHOD_NAMES = tuple(shutin.SHUTIN_METHODS)
 FCP_METHODS = SHUTIN_METHOD_NAMES + FLOWBACK_METHODS
 #: Methods that accept fixed tangents (two time windows).
 TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
-#: Cycle kinds that get pressure picks.
-TEST_KINDS = ("lot", "xlot")
+#: Cycle kinds that open no fracture (surface lines against a closed valve, a casing held
+#: at pressure, a pressurisation that neither departed from its line nor held): they get no
+#: closure picks. Every other kind -- LOT, XLOT, DFIT / mini-frac, step-rate test,
+#: stimulation, and kinds the segmentation adds later -- is a test cycle.
+NON_FRACTURE_KINDS = ("line_test", "casing_test", "other")
+
+
+def is_test_cycle(cycle: Cycle) -> bool:
+    """Whether the cycle is a test that may open a fracture (pressure and closure picks)."""
+    return cycle.kind not in NON_FRACTURE_KINDS
 
 _Window = tuple[float, float]
 
@@ -342,15 +379,16 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
     Returns
     -------
     Pick
-        ``name="FCP"``, ``method="consensus"``; ``details["rule"]`` says which branch of the
-        rule applied and ``details["methods"]`` which picks were combined.
+        ``name="FCP"``, ``method="consensus"``; ``details`` (:class:`~xlotkit.interpret.
+        picks.details.ConsensusDetails`): ``rule``, the branch of the rule that applied, and
+        ``methods``, the picks combined.
     """
     fcps = [p for p in picks if p.name == "FCP" and p.method != "consensus"]
     found = [p for p in fcps if p.found]
     if not found:
         reasons = "; ".join(f"{p.method}: {p.message}" for p in fcps) or "no FCP method was run"
         return Pick.not_found("FCP", "consensus", f"no method found closure ({reasons})",
-                              details={"rule": "none", "methods": ()})
+                              details=ConsensusDetails(rule="none"))
     flow = {p.method: p for p in found if p.method in FLOWBACK_METHODS}
     good_flow = [flow[m] for m in FLOWBACK_METHODS if m in flow and flow[m].quality == "good"]
     if good_flow:
@@ -363,9 +401,10 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
         return Pick("FCP", "consensus", chosen.value, low=low, high=high, t=chosen.t,
                     window=chosen.window, quality="good",
                     message=f"system stiffness on flowback ({chosen.method})",
-                    details={"rule": "flowback", "methods": tuple(p.method for p in good_flow),
-                             "chosen": chosen.method,
-                             "spread": float(max(fvals) - min(fvals))},
+                    details=ConsensusDetails(rule="flowback",
+                                             methods=tuple(p.method for p in good_flow),
+                                             chosen=chosen.method,
+                                             spread=float(max(fvals) - min(fvals))),
                     level=_common_level(good_flow))
     shut = [p for p in found if p.method not in FLOWBACK_METHODS]
     pool = [p for p in shut if p.quality in ("good", "fair")]
@@ -391,9 +430,15 @@ def consensus_fcp(picks: Sequence[Pick]) -> Pick:
     closest = pool[int(np.argmin(np.abs(values - med)))]
     return Pick("FCP", "consensus", med, low=low, high=high, t=closest.t, quality=q,
                 message=f"median of {', '.join(names)}",
-                details={"rule": rule, "methods": names,
-                         "spread": float(values.max() - values.min())},
+                details=ConsensusDetails(rule=rule, methods=names,
+                                         spread=float(values.max() - values.min())),
                 level=_common_level(pool))
+
+
+def consensus_rule(pick: Pick) -> str:
+    """The rule a consensus FCP was formed by (``"flowback"``, ``"shut-in median"``, ...),
+    ``""`` for any other pick."""
+    return pick.details.rule if isinstance(pick.details, ConsensusDetails) else ""
 
 
 def _common_level(picks: Sequence[Pick]) -> float | None:
@@ -408,14 +453,14 @@ def _contrast(p: Pick) -> float:
     """A found closure pick's evidence of the fracture's compliance leaving the system: the
     closed/open slope ratio of a flowback pick or of a stiffening shut-in break; 0 for a
     flattening break or a method that reports no signature."""
-    d = p.details or {}
-    if p.method in FLOWBACK_METHODS:
-        r = d.get("slope_ratio", d.get("stiffness_ratio"))
-    elif d.get("closure_signature") == "stiffening":
-        r = d.get("slope_ratio")
+    d = p.details
+    if isinstance(d, FlowbackDetails):
+        r = d.contrast
+    elif isinstance(d, SlopeBreakDetails) and d.closure_signature == "stiffening":
+        r = d.slope_ratio
     else:
         r = None
-    return float(r) if isinstance(r, (int, float, np.floating)) and np.isfinite(r) else 0.0
+    return float(r) if r is not None and np.isfinite(r) else 0.0
 
 
 def _adjacent_shutin_flowback(cycle: Cycle) -> bool:
@@ -473,7 +518,8 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
     # uncorroborated, the break cannot overrule the shut-in (e.g. a choke or surface-line
     # effect on the sqrt(p) plot that the returned volume does not show).
     contradicted = any(p.name == "FCP" and not p.found and p.method in FLOWBACK_METHODS
-                       and (p.details or {}).get("single_line") for p in picks)
+                       and isinstance(p.details, FlowbackDetails) and p.details.single_line
+                       for p in picks)
     c_flow = 0.0 if contradicted else max(_contrast(p) for p in flow)
     c_shut = max(_contrast(p) for p in shut)
     if c_flow == c_shut:
@@ -506,8 +552,9 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
             notes.append(f"{p.method}: closure at {p.value / 1e5:.1f} bar rejected: {why}")
             out.append(Pick.not_found(
                 "FCP", p.method, f"closure at {p.value / 1e5:.1f} bar rejected: {why}",
-                window=p.window, details={**(p.details or {}), "rejected_value": p.value,
-                                          "rejected_low": p.low, "rejected_high": p.high}))
+                window=p.window, details=RejectedDetails(
+                    original=p.details, rejected_value=p.value, rejected_low=p.low,
+                    rejected_high=p.high, reason=why)))
         else:
             out.append(p)
     return out, notes
@@ -551,7 +598,7 @@ class CyclePicks:
         object.__setattr__(self, "picks", tuple(self.picks))
         object.__setattr__(self, "notes", tuple(self.notes))
         if self.fcp is None:
-            if self.cycle.kind in TEST_KINDS:
+            if is_test_cycle(self.cycle):
                 fcp = consensus_fcp(self.picks)
             else:
                 fcp = Pick.not_found("FCP", "consensus",
@@ -595,7 +642,7 @@ def _run(entry: MethodEntry, record: Record, cycle: Cycle, *, window: _Window | 
     with captured() as said:
         try:
             out = entry.run(record, cycle, window=window, tangents=tangents, isip=isip)
-        except Exception as exc:  # noqa: BLE001 -- one failing method must not stop the others
+        except Exception as exc:
             line = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
             return Pick.not_found(name, method,
                                   f"{method} failed: {type(exc).__name__}: {line}".rstrip(": "))
@@ -613,10 +660,6 @@ def _run(entry: MethodEntry, record: Record, cycle: Cycle, *, window: _Window | 
 
 
 # --------------------------------------------------------------------------- stiffness
-_STIFFNESS_KEYS = ("stiffness", "system_stiffness", "stiffness_pa_per_m3", "slope_p_v",
-                   "pressurisation_stiffness")
-
-
 def _pumped_volume(record: Record, i0: int, i1: int) -> np.ndarray | None:
     if record.volume is not None:
         v = record.volume[i0:i1]
@@ -667,21 +710,18 @@ def _stiffness(record: Record, cycle: Cycle, picks: Sequence[Pick]
     if said.notes():
         src += "; numerical warnings: " + "; ".join(said.notes()[:3])
     for pk in picks:
-        if pk.name in ("LOP", "Pr"):
-            for k in _STIFFNESS_KEYS:
-                s = pk.details.get(k)
-                if (isinstance(s, (int, float, np.floating)) and np.isfinite(s) and s > 0
-                        and abs(s / f.slope - 1.0) > 0.2):
-                    src += f"; the {pk.name} line has {s / 1e5:.4g} bar/m3"
-                    break
+        if pk.name in ("LOP", "Pr") and isinstance(pk.details, PressurisationDetails):
+            s = pk.details.stiffness
+            if s is not None and np.isfinite(s) and s > 0 and abs(s / f.slope - 1.0) > 0.2:
+                src += f"; the {pk.name} line has {s / 1e5:.4g} bar/m3"
     se = float(f.slope_stderr) if np.isfinite(f.slope_stderr) else None
     return float(f.slope), se, src
 
 
 # --------------------------------------------------------------------------- pick_cycle
 def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = None,
-               options: PickOptions | None = None) -> CyclePicks:
-    """Run every applicable pick on one cycle.
+               options: PickOptions | None = None, after: Sequence[Phase] = ()) -> CyclePicks:
+    """Run every applicable pick on one cycle (module docstring, "What is picked where").
 
     Parameters
     ----------
@@ -691,6 +731,9 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
         Picks of the previous *test* cycle; None marks this as the first test cycle (LOP and
         FBP are picked there, reopening in later ones).
     options : PickOptions, optional
+    after : sequence of Phase, optional
+        The idle phases that follow the cycle in the record before the next cycle starts: a
+        user window may reach into them (it overrides the phase boundaries it crosses).
 
     Returns
     -------
@@ -699,11 +742,10 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
     options = options or PickOptions()
     ref = record.reference.describe()
     notes: list[str] = []
-    if cycle.kind not in TEST_KINDS:
-        s, se, src = _stiffness(record, cycle, ())
-        return CyclePicks(cycle, (), ref, s, se, src,
-                          notes=(f"{cycle.kind} cycle: only the stiffness is picked",))
     ci = cycle.index
+    trailing = tuple(ph for ph in after if ph.kind == "idle" and ph.t_start >= cycle.t_end)
+    view = dataclasses.replace(cycle, phases=tuple(cycle.phases) + trailing) if trailing \
+        else cycle
 
     def press(name: str) -> Pick:
         entry = _BY_PICK[name]
@@ -711,18 +753,20 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
         if win is not None and not entry.takes_window:
             notes.append(f"{name}: the pick takes no window, override ignored")
             win = None
-        return _run(entry, record, cycle, window=win, tangents=None, isip=None)
+        return _run(entry, record, view, window=win, tangents=None, isip=None)
 
+    if not is_test_cycle(cycle):
+        isip = press("ISIP")
+        s, se, src = _stiffness(record, cycle, ())
+        return CyclePicks(cycle, (isip,), ref, s, se, src,
+                          notes=(f"{cycle.kind} cycle: no fracture picks, only the ISIP and "
+                                 "the stiffness",))
     picks: list[Pick] = []
-    first = previous is None
-    if first:
-        picks.append(press("LOP"))
-        if cycle.kind == "xlot":
-            picks.append(press("FBP"))
+    if previous is None:
+        picks += [press("LOP"), press("FBP")]
     else:
         picks.append(press("Pr"))
-    if cycle.kind == "xlot":
-        picks.append(press("FPP"))
+    picks.append(press("FPP"))
     isip = press("ISIP")
     picks.append(isip)
 
@@ -739,7 +783,7 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
             if tan is not None and not e.takes_tangents:
                 notes.append(f"{e.method}: fixed tangents not supported by the method, ignored")
                 tan = None
-            picks.append(_run(e, record, cycle, window=options.window(ci, e.method),
+            picks.append(_run(e, record, view, window=options.window(ci, e.method),
                               tangents=tan, isip=isip if isip.found else None))
     fixed = {m for m in FCP_METHODS
              if options.window(ci, m) is not None or options.tangent(ci, m) is not None}
@@ -773,6 +817,9 @@ class Consistency:
         that stays open or a leaking shoe.
     stiffness_relative_change : float or None
         Last / first stiffness - 1.
+    closure : ClosureAgreement
+        The record's closure from the cycles that agree, and the outlier cycles with their
+        reasons (:func:`~xlotkit.interpret.picks.agreement.agree_closures`).
     """
 
     fcp: tuple[tuple[int, float], ...]
@@ -784,10 +831,11 @@ class Consistency:
     stiffness_slope: float | None
     stiffness_slope_stderr: float | None
     stiffness_relative_change: float | None
+    closure: ClosureAgreement | None = None
 
 
 def _t0(cycles: Sequence[CyclePicks]) -> Pick:
-    tests = [c for c in cycles if c.kind in TEST_KINDS]
+    tests = [c for c in cycles if is_test_cycle(c.cycle)]
     fbp = tests[0].get("FBP") if tests else None
     if fbp is None or not fbp.found:
         return Pick.not_found("T0", "FBP-Pr", "no breakdown pressure in the first test cycle")
@@ -809,12 +857,13 @@ def _t0(cycles: Sequence[CyclePicks]) -> Pick:
     # cover, and usually more (their errors partly cancel); the study measures it.
     lvl = _common_level((fbp, pr))
     return Pick("T0", "FBP-Pr", value, low=min(lo, value), high=max(hi, value), quality=q,
-                message=msg, details={"FBP": fbp.value, "Pr": pr.value}, level=lvl)
+                message=msg, details=T0Details(fbp=fbp.value, pr=pr.value), level=lvl)
 
 
 def _consistency(cycles: Sequence[CyclePicks]) -> Consistency:
-    fcp = tuple((c.index, float(c.fcp.value)) for c in cycles
-                if c.kind in TEST_KINDS and c.fcp is not None and c.fcp.found)
+    tests = [c for c in cycles if is_test_cycle(c.cycle)]
+    fcp = tuple((c.index, float(c.fcp.value)) for c in tests
+                if c.fcp is not None and c.fcp.found)
     if fcp:
         v = np.array([x for _, x in fcp])
         mean, spread = float(v.mean()), float(np.ptp(v))
@@ -832,7 +881,9 @@ def _consistency(cycles: Sequence[CyclePicks]) -> Consistency:
         else:
             slope = float((s[1] - s[0]) / (i[1] - i[0]))
         change = float(s[-1] / s[0] - 1.0)
-    return Consistency(fcp, mean, spread, rel, _t0(cycles), st, slope, slope_se, change)
+    closure = agree_closures([(c.index, c.fcp) for c in tests])
+    return Consistency(fcp, mean, spread, rel, _t0(cycles), st, slope, slope_se, change,
+                       closure)
 
 
 @dataclass(frozen=True)
@@ -875,8 +926,8 @@ class RecordPicks:
 
     @property
     def test_cycles(self) -> tuple[CyclePicks, ...]:
-        """The LOT/XLOT cycles."""
-        return tuple(c for c in self.cycles if c.kind in TEST_KINDS)
+        """The test cycles (:func:`is_test_cycle`: every kind that may open a fracture)."""
+        return tuple(c for c in self.cycles if is_test_cycle(c.cycle))
 
 
 def pick_record(record: Record, segmentation: Segmentation | None = None, *,
@@ -899,10 +950,14 @@ def pick_record(record: Record, segmentation: Segmentation | None = None, *,
         segmentation = segment(record)
     out: list[CyclePicks] = []
     previous: CyclePicks | None = None
-    for cyc in segmentation.cycles:
-        cp = pick_cycle(record, cyc, previous=previous, options=options)
+    cycles = segmentation.cycles
+    for k, cyc in enumerate(cycles):
+        t_next = cycles[k + 1].t_start if k + 1 < len(cycles) else np.inf
+        after = tuple(ph for ph in segmentation.phases
+                      if ph.kind == "idle" and cyc.t_end <= ph.t_start < t_next)
+        cp = pick_cycle(record, cyc, previous=previous, options=options, after=after)
         out.append(cp)
-        if cyc.kind in TEST_KINDS:
+        if is_test_cycle(cyc):
             previous = cp
     return RecordPicks(record, segmentation, tuple(out), options)
 

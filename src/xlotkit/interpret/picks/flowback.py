@@ -26,8 +26,9 @@ Two methods are offered, both returning a :class:`~xlotkit.interpret.picks.types
     two lines in :math:`\\sqrt{p_c - p_{atm}}` versus ``t``. The intersection time is mapped
     back to the record's own pressure reference (see *Choke pressure* below).
 ``flowback_p_v``
-    two lines in record pressure versus returned volume; ``details["stiffness_open"]`` and
-    ``details["stiffness_closed"]`` [Pa/m^3] with standard errors.
+    two lines in record pressure versus returned volume; ``details.stiffness_open`` and
+    ``details.stiffness_closed`` [Pa/m^3] with standard errors
+    (:class:`~xlotkit.interpret.picks.details.FlowbackDetails`).
 
 Choke pressure
 --------------
@@ -81,19 +82,25 @@ was already closed when it started) the methods return :meth:`Pick.not_found` sa
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle, Phase
+from xlotkit.interpret.picks.details import FlowbackDetails, LineDetails
 from xlotkit.interpret.picks.intervals import (
     IntervalBudget,
     budget,
     correlation_inflation,
     find_transition,
 )
-from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect, window_spread
+from xlotkit.interpret.picks.models import (
+    LineFit,
+    fit_hinge,
+    fit_line,
+    intersect,
+    window_spread,
+)
 from xlotkit.interpret.picks.pressurisation import noise_level, quantum
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.record import ATMOSPHERE_PA, Record
@@ -110,7 +117,7 @@ __all__ = [
 FLOWBACK_METHODS = ("flowback_sqrt_p", "flowback_p_v")
 
 #: How a flowback pick's message starts when the decline is one straight line (the method
-#: ran on enough data and saw no stiffness change); such a pick has ``details["single_line"]``.
+#: ran on enough data and saw no stiffness change); such a pick has ``details.single_line``.
 ONE_LINE = "only one straight line"
 
 # Fewest samples allowed on each tangent; below this the fit covariance is meaningless.
@@ -151,8 +158,31 @@ class ChokePressure:
     description: str
 
 
-def _flowback_phase(cycle: Cycle) -> Phase | None:
-    return cycle.phase("flowback")
+def _flowback_phase(cycle: Cycle, window: tuple[float, float] | None = None
+                    ) -> tuple[Phase | None, tuple[str, ...]]:
+    """The cycle's first flowback phase; a user window overrides the phase boundaries it
+    crosses (the neighbouring phases it reaches into join the flowback, pumping never), with
+    a note for each."""
+    fb = cycle.phase("flowback")
+    if fb is None or window is None:
+        return fb, ()
+    ph = list(cycle.phases)
+    k = next(j for j, q in enumerate(ph) if q is fb)
+    a = b = k
+    notes = []
+    while b + 1 < len(ph) and ph[b + 1].kind != "pump" and ph[b + 1].t_start <= window[1] \
+            and window[1] > ph[b].t_end:
+        notes.append(f"the window overrides the end of the flowback at t = {ph[b].t_end:.0f} s")
+        b += 1
+    while a - 1 >= 0 and ph[a - 1].kind != "pump" and ph[a - 1].t_end >= window[0] \
+            and window[0] < ph[a].t_start:
+        notes.append(f"the window overrides the start of the flowback at t = "
+                     f"{ph[a].t_start:.0f} s")
+        a -= 1
+    if a == b:
+        return fb, ()
+    return replace(fb, i0=ph[a].i0, i1=ph[b].i1, t_start=ph[a].t_start,
+                   t_end=ph[b].t_end), tuple(notes)
 
 
 def choke_pressure(record: Record, phase: Phase | None = None) -> ChokePressure:
@@ -266,7 +296,7 @@ def _line_or_none(x: np.ndarray, y: np.ndarray, m: np.ndarray) -> LineFit | None
         return None
     try:
         return fit_line(x[m], y[m])
-    except Exception:  # noqa: BLE001 -- a degenerate window just drops out of the spread
+    except Exception:
         return None
 
 
@@ -307,7 +337,7 @@ def _two_lines(u: np.ndarray, x: np.ndarray, y: np.ndarray, *,
     else:
         try:
             h = fit_hinge(x, y, min_points=_MIN_POINTS)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             return f"two-line fit failed: {exc}"
         single = fit_line(x, y)
         sse1 = float(np.sum((y - single(x)) ** 2))
@@ -381,10 +411,8 @@ def _quality(tl: _TwoLines, value: float, low: float, high: float, ratio: float)
     return "poor"
 
 
-def _line_details(f: LineFit) -> dict[str, Any]:
-    return {"slope": f.slope, "intercept": f.intercept, "slope_stderr": f.slope_stderr,
-            "intercept_stderr": f.intercept_stderr, "r2": f.r2, "n": f.n,
-            "x_range": f.x_range}
+def _line_details(f: LineFit) -> LineDetails:
+    return LineDetails.of(f)
 
 
 def _fit_width(value: float, se: float, spread: tuple[float, float]) -> tuple[float, float]:
@@ -447,11 +475,11 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
         keep[idx[:k0]] = False
     tt, y = t[keep], np.sqrt(pc[keep])
     win = (float(tt[0]), float(tt[-1])) if tt.size else None
-    details: dict[str, Any] = {"choke_pressure": choke.description,
-                               "choke_source": choke.source, "flowing_samples": flow_how}
+    details = FlowbackDetails(choke_pressure=choke.description, choke_source=choke.source,
+                              flowing_samples=flow_how)
     res = _two_lines(tt, tt, y, tangents=tangents)
     if isinstance(res, str):
-        details["single_line"] = res.startswith(ONE_LINE)
+        details = replace(details, single_line=res.startswith(ONE_LINE))
         return Pick.not_found(name, method, res, window=win, details=details)
 
     rec_p = record.pressure[sl][keep]
@@ -485,20 +513,18 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
     bud = _flowback_budget(res, tt, tt, y, rec_p, value, se_p, trial_values,
                            0.5 * max(quantum(rec_p), q_c), floor)
     low, high = bud.low, bud.high
-    details.update({
-        "x": "t", "y": "sqrt(choke gauge pressure) [Pa^0.5]",
-        "line_open": _line_details(res.left), "line_closed": _line_details(res.right),
-        "t_closure": res.x, "t_closure_stderr": res.x_se,
-        "t_closure_range": t_spread,
-        "sqrt_p_closure": res.y, "sqrt_p_closure_stderr": res.y_se,
-        "choke_pressure_closure": res.y ** 2,
-        "base_pressure": choke.base,
-        "slope_ratio": ratio,
-        "n_trials": len(res.trials),
-        "window_open": (float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
-        "window_closed": (float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
-        "interval": bud,
-    })
+    details = replace(
+        details, x="t", y="sqrt(choke gauge pressure) [Pa^0.5]",
+        line_open=_line_details(res.left), line_closed=_line_details(res.right),
+        t_closure=float(res.x), t_closure_stderr=float(res.x_se),
+        t_closure_range=tuple(float(v) for v in t_spread),
+        sqrt_p_closure=float(res.y), sqrt_p_closure_stderr=float(res.y_se),
+        choke_pressure_closure=float(res.y ** 2),
+        base_pressure=None if choke.base is None else float(choke.base),
+        slope_ratio=float(ratio), n_trials=len(res.trials),
+        window_open=(float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
+        window_closed=(float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
+        interval=bud)
     msg = (f"closure where the sqrt(p) decline steepens x{ratio:.2f} "
            f"(system stiffness contrast); choke pressure from {choke.description}")
     return Pick(name=name, method=method, value=value, low=low, high=high, t=res.x,
@@ -530,13 +556,13 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
     tt, vv, pp = t[keep], v[keep], p[keep]
     if tt.size:
         win = (float(tt[0]), float(tt[-1]))
-    details: dict[str, Any] = {"volume_source": vsrc}
+    details = FlowbackDetails(volume_source=vsrc)
     if tt.size and (np.nanmax(vv) - np.nanmin(vv)) <= 0:
         return Pick.not_found(name, method, "returned volume does not change during flowback",
                               window=win, details=details)
     res = _two_lines(tt, vv, pp, tangents=tangents)
     if isinstance(res, str):
-        details["single_line"] = res.startswith(ONE_LINE)
+        details = replace(details, single_line=res.startswith(ONE_LINE))
         return Pick.not_found(name, method, res, window=win, details=details)
     value = float(res.y)
     trial_values = [yi for _, yi in res.trials]
@@ -549,20 +575,17 @@ def _pick_p_v(record: Record, phase: Phase, window, tangents) -> Pick:
     low, high = bud.low, bud.high
     vmono = np.maximum.accumulate(vv)
     t_c = float(np.interp(res.x, vmono, tt))
-    details.update({
-        "x": "returned volume [m^3]", "y": "pressure [Pa]",
-        "line_open": _line_details(res.left), "line_closed": _line_details(res.right),
-        "stiffness_open": s_open, "stiffness_open_stderr": res.left.slope_stderr,
-        "stiffness_closed": s_closed, "stiffness_closed_stderr": res.right.slope_stderr,
-        "stiffness_ratio": ratio,
-        "volume_closure": res.x, "volume_closure_stderr": res.x_se,
-        "pressure_closure_stderr": res.y_se,
-        "t_closure": t_c,
-        "n_trials": len(res.trials),
-        "window_open": (float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
-        "window_closed": (float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
-        "interval": bud,
-    })
+    details = replace(
+        details, x="returned volume [m^3]", y="pressure [Pa]",
+        line_open=_line_details(res.left), line_closed=_line_details(res.right),
+        stiffness_open=float(s_open), stiffness_open_stderr=float(res.left.slope_stderr),
+        stiffness_closed=float(s_closed), stiffness_closed_stderr=float(res.right.slope_stderr),
+        stiffness_ratio=float(ratio), volume_closure=float(res.x),
+        volume_closure_stderr=float(res.x_se), pressure_closure_stderr=float(res.y_se),
+        t_closure=t_c, n_trials=len(res.trials),
+        window_open=(float(tt[res.masks[0]][0]), float(tt[res.masks[0]][-1])),
+        window_closed=(float(tt[res.masks[1]][0]), float(tt[res.masks[1]][-1])),
+        interval=bud)
     msg = (f"closure where the system stiffness rises from {s_open / 1e5:.4g} to "
            f"{s_closed / 1e5:.4g} bar/m3 (returned volume from {vsrc})")
     return Pick(name=name, method=method, value=value, low=low, high=high, t=t_c,
@@ -586,7 +609,9 @@ def pick_fcp_flowback(
         Must contain a ``flowback`` phase.
     window : (float, float), optional
         Elapsed-time window [s] of the flowback data to use (default: the whole phase, less
-        the last few percent of choke pressure where the choke law fails).
+        the last few percent of choke pressure where the choke law fails); it overrides the
+        flowback's phase boundaries it crosses (the phases it reaches into join the
+        flowback, pumping never; only flowing samples are used, :func:`flowing_mask`).
     tangents : ((float, float), (float, float)), optional
         Fixed time windows [s] of the open-fracture and closed-fracture tangents; skips the
         automatic break search (both methods use the same windows).
@@ -608,7 +633,7 @@ def pick_fcp_flowback(
         tangents = tuple((float(a), float(b)) for a, b in tangents)
         if len(tangents) != 2 or any(b <= a for a, b in tangents):
             raise ValueError("tangents must be two (t_start, t_end) windows with t_end > t_start")
-    phase = _flowback_phase(cycle)
+    phase, notes = _flowback_phase(cycle, window)
     if phase is None:
         msg = f"cycle {cycle.index} has no flowback phase"
         return (Pick.not_found("FCP", "flowback_sqrt_p", msg),
@@ -616,7 +641,10 @@ def pick_fcp_flowback(
     out = []
     for m, fn in (("flowback_sqrt_p", _pick_sqrt_p), ("flowback_p_v", _pick_p_v)):
         if m in methods:
-            out.append(fn(record, phase, window, tangents))
+            pk = fn(record, phase, window, tangents)
+            if notes:
+                pk = replace(pk, message="; ".join((pk.message, *notes)).lstrip("; "))
+            out.append(pk)
         else:
             out.append(Pick.not_found("FCP", m, "not requested"))
     return out[0], out[1]

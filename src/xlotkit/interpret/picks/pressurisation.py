@@ -28,49 +28,60 @@ the ISIP tangent, closure on sqrt(t) and G plots). The steps, implemented once h
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import lmfit
 import numpy as np
 
-from xlotkit.interpret.phases import Cycle, Phase
-from xlotkit.interpret.picks.intervals import budget, correlation_inflation, onset_profile
+from xlotkit.interpret.phases import Cycle
+from xlotkit.interpret.picks.decline import (
+    decline,
+    pump_phases,
+    shutin_phase,
+    shutin_time,
+    stop_pump,
+    user_stretch,
+)
+from xlotkit.interpret.picks.details import (
+    BreakdownDetails,
+    BreakdownEvent,
+    DepartureDetails,
+    IsipDetails,
+    LineDetails,
+    PlateauDetails,
+    PressurisationDetails,
+)
+from xlotkit.interpret.picks.intervals import (
+    budget,
+    correlation_inflation,
+    onset_profile,
+)
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line
 from xlotkit.interpret.picks.types import Pick, PickQuality
 from xlotkit.record import Record
 
-__all__ = ["pick_fbp", "pick_fpp", "pick_isip", "pick_lop", "pick_reopening"]
+__all__ = [
+    "no_shutin_reason",
+    "pick_fbp",
+    "pick_fpp",
+    "pick_isip",
+    "pick_lop",
+    "pick_reopening",
+    "pump_phases",
+    "shutin_phase",
+    "shutin_time",
+    "stop_pump",
+]
 
 #: Fewest samples a line fit is allowed to use.
 MIN_LINE_POINTS = 6
 
 
 # ===================================================================== phase helpers
-def pump_phases(cycle: Cycle) -> list[Phase]:
-    """The cycle's ``pump`` phases in time order."""
-    return [p for p in cycle.phases if p.kind == "pump"]
-
-
-def shutin_phase(cycle: Cycle) -> Phase | None:
-    """The first ``shut_in`` phase after the cycle's last pump phase, or None."""
-    pumps = pump_phases(cycle)
-    if not pumps:
-        return None
-    last = pumps[-1]
-    for p in cycle.phases:
-        if p.kind == "shut_in" and p.i0 >= last.i1 - 1 and p.t_start >= last.t_start:
-            return p
-    return None
-
-
-def shutin_time(record: Record, cycle: Cycle, shut: Phase) -> float:
-    """Time the pumps stopped [s]: half-way between the last pumping and first shut-in sample."""
-    pumps = pump_phases(cycle)
-    i = shut.i0
-    if pumps and pumps[-1].i1 <= i and i > 0:
-        return 0.5 * (record.t[pumps[-1].i1 - 1] + record.t[i])
-    return float(record.t[i])
+# The pump stop and the decline after it live in xlotkit.interpret.picks.decline;
+# pump_phases, shutin_phase, shutin_time and stop_pump are re-exported here (__all__), where
+# the shut-in and diagnostics modules have always found them.
 
 
 def pumped_volume(record: Record, i0: int, i1: int) -> np.ndarray | None:
@@ -447,8 +458,7 @@ def departure_pick(name: str, method: str, x: np.ndarray, y: np.ndarray, t: np.n
                    sign: int = 0, slope_sign: int = 0, start: int = 0,
                    stretch: tuple[int, int] | None = None, noise: float | None = None,
                    not_found_msg: str = "no departure from the straight line",
-                   x_name: str = "x", extra: dict[str, Any] | None = None,
-                   prefer_early: bool | float = False) -> Pick:
+                   x_name: str = "x", prefer_early: bool | float = False) -> Pick:
     """A :class:`Pick` at the first departure from a straight line of ``y(x)``.
 
     The base search (:func:`find_departure`) is repeated with the slope tolerance at 0.06 and
@@ -461,14 +471,9 @@ def departure_pick(name: str, method: str, x: np.ndarray, y: np.ndarray, t: np.n
     if base is None:
         return Pick.not_found(name, method, f"{not_found_msg}: no straight stretch found "
                               f"({x.size - start} samples)")
-    details: dict[str, Any] = {
-        "slope": base.fit.slope, "slope_stderr": base.fit.slope_stderr,
-        "intercept": base.fit.intercept, "intercept_stderr": base.fit.intercept_stderr,
-        "r2": base.fit.r2, "n": base.fit.n, "sigma": base.sigma,
-        f"{x_name}_range": base.fit.x_range,
-    }
-    if extra:
-        details.update(extra)
+    details = DepartureDetails(x_name=x_name, line=LineDetails.of(base.fit),
+                               sigma=float(base.sigma),
+                               x_range=tuple(float(v) for v in base.fit.x_range))
     win = (float(t[base.a]), float(t[base.b]))
     if base.j_pick is None:
         return Pick.not_found(
@@ -523,28 +528,20 @@ def departure_pick(name: str, method: str, x: np.ndarray, y: np.ndarray, t: np.n
     q_y = quantum(y)
     bud = budget(best.value, stderr=s, trials=vals.tolist(), resolution=0.5 * q_y,
                  extra=extra)
-    details.update({"interval": bud})
-    details.update({
-        f"{x_name}_pick": best.x, "departure": "below" if base.direction < 0 else "above",
-        f"{x_name}_departure_detected": float(x[jd]), "t_departure_detected": float(t[jd]),
-        "trial_values": vals.tolist(), "line_stderr_at_pick": s,
-        f"{x_name}_first_deviation": walk.x, "first_deviation_value": walk.value,
-    })
+    details = replace(
+        details, interval=bud, x_pick=float(best.x),
+        departure="below" if base.direction < 0 else "above",
+        x_departure_detected=float(x[jd]), t_departure_detected=float(t[jd]),
+        trial_values=tuple(float(v) for v in vals), line_stderr_at_pick=float(s),
+        x_first_deviation=float(walk.x), first_deviation_value=float(walk.value))
     q = quality(base.fit.r2, best.value, low, high, base.fit.n)
     return Pick(name=name, method=method, value=best.value, low=bud.low, high=bud.high,
                 t=best.t, window=(win[0], float(t[jd])), quality=q, details=details,
                 level=bud.level)
 
 
-def _user_stretch(t: np.ndarray, window: tuple[float, float] | None) -> tuple[int, int] | None:
-    """Inclusive index range of samples with ``t0 <= t <= t1``."""
-    if window is None:
-        return None
-    t0, t1 = window
-    idx = np.flatnonzero((t >= t0) & (t <= t1))
-    if idx.size < 3:
-        raise ValueError(f"window {window} holds fewer than 3 samples")
-    return int(idx[0]), int(idx[-1])
+#: Inclusive index range of the samples in a user window (``decline.user_stretch``).
+_user_stretch = user_stretch
 
 
 # ===================================================================== LOP / Pr
@@ -574,29 +571,28 @@ def _pressurisation_pick(name: str, record: Record, cycle: Cycle,
                           not_found_msg="no departure from the pressurisation line")
     if not pick.found and pick.window is None:
         return pick
-    d = dict(pick.details)
-    slope, se = d.get("slope"), d.get("slope_stderr")
+    dep = pick.details
+    slope, se = dep.line.slope, dep.line.slope_stderr
     if use_volume:
-        d["stiffness"], d["stiffness_stderr"] = slope, se
+        d = PressurisationDetails(departure=dep, stiffness=slope, stiffness_stderr=se)
     else:
-        d["stiffness"], d["stiffness_stderr"] = None, None
-        d["pressurisation_rate"], d["pressurisation_rate_stderr"] = slope, se
+        d = PressurisationDetails(departure=dep, pressurisation_rate=slope,
+                                  pressurisation_rate_stderr=se)
     msg = pick.message
     if not use_volume:
         msg = (msg + "; " if msg else "") + "no volume or rate: pressure vs time used"
     if pick.found:
         # Hinge fit as an independent check of where the slope changes.
-        jd = int(np.searchsorted(t_, d["t_departure_detected"]))
+        jd = int(np.searchsorted(t_, dep.t_departure_detected))
         a = int(np.searchsorted(t_, pick.window[0]))
         hi = min(x.size, jd + max(MIN_LINE_POINTS, (jd - a) // 3))
         try:
             h = fit_hinge(x[a:hi], p_[a:hi], min_points=MIN_LINE_POINTS)
-            d["hinge_" + x_name] = h.x0
-            d["hinge_pressure"] = h.y0
-            d["hinge_stderr"] = h.y0_stderr
+            d = replace(d, hinge_x=float(h.x0), hinge_pressure=float(h.y0),
+                        hinge_stderr=float(h.y0_stderr))
         except (ValueError, TypeError):
             pass
-        if abs(pick.value - float(np.max(p))) <= 3 * d["sigma"]:
+        if abs(pick.value - float(np.max(p))) <= 3 * dep.sigma:
             msg = (msg + "; " if msg else "") + "departure at the peak (brittle breakdown)"
     # The reopening pressure's interval holds its 90 % level in the calibration study
     # (docs/intervals.md); the LOP's does not (its departure is often detected early on a
@@ -628,8 +624,9 @@ def pick_lop(record: Record, cycle: Cycle, *, window: tuple[float, float] | None
     Returns
     -------
     Pick
-        ``name="LOP"``, ``method="departure"``; ``details["stiffness"]`` [Pa/m^3] with
-        ``details["stiffness_stderr"]``, the hinge-fit check ``details["hinge_pressure"]``.
+        ``name="LOP"``, ``method="departure"``; details (:class:`~xlotkit.interpret.picks.
+        details.PressurisationDetails`): ``stiffness`` [Pa/m^3] with ``stiffness_stderr``,
+        the hinge-fit check ``hinge_pressure``.
     """
     return _pressurisation_pick("LOP", record, cycle, window)
 
@@ -652,18 +649,106 @@ def _pump_samples(record: Record, cycle: Cycle) -> np.ndarray:
     return np.concatenate([np.arange(p.i0, p.i1) for p in pumps])
 
 
-def pick_fbp(record: Record, cycle: Cycle) -> Pick:
-    """Formation breakdown pressure: the peak while pumping, if the pressure then fell.
+#: How far the pump rate may change (relative to its rate at the peak) and still count as
+#: unchanged: a few percent is the steadiness of a cementing or frac pump at a set rate; the
+#: rate's own noise (4 sigma) widens it on a noisy flowmeter.
+RATE_STEADY_FRACTION = 0.05
 
-    A cycle broke down when, after its highest pumping pressure, the pressure drops by more
-    than ``max(5 sigma, 2 q, 0.5 % of the peak)`` while the pumps keep running (``sigma`` noise,
-    ``q`` quantisation step). The value is the peak of the 3-sample running median (a single
-    spike does not count); the interval spans that and the raw maximum, ``± q/2``.
+
+def _rate_tol(q_peak: float | None, noise_tol: float) -> float:
+    """Change of rate [m^3/s] that counts as a change at a peak pumped at ``q_peak``."""
+    return max(RATE_STEADY_FRACTION * abs(q_peak or 0.0), noise_tol)
+
+
+def _fbp_events(pm: np.ndarray, t: np.ndarray, q: np.ndarray | None, gap: np.ndarray,
+                thresh: float, q_noise: float
+                ) -> list[tuple[int, int, float, BreakdownEvent]]:
+    """Every local peak of the smoothed pumping pressure and the fall after it.
+
+    For a peak at ``i`` the fall is followed until the pressure comes back above the peak
+    or pumping pauses, and counted only while the rate holds: a cut of the rate (below the
+    peak's by more than :func:`_rate_tol`) ends it, since less friction explains a fall
+    from there on; a higher rate does not (more fluid and less pressure is breakdown
+    itself). A peak whose pressure falls only with a rate cut is kept as a rejected event.
+
+    Returns
+    -------
+    list of (i_peak, i_min, drop, BreakdownEvent)
+        ``drop`` is the fall while the rate held [Pa].
+    """
+    n = pm.size
+    out: list[tuple[int, int, float, BreakdownEvent]] = []
+    if n < 3:
+        return out
+    left = np.concatenate([[-np.inf], pm[:-1]])
+    right = np.concatenate([pm[1:], [-np.inf]])
+    peaks = np.flatnonzero((pm >= left) & (pm > right))
+    # where pumping resumes after a pause (a fall across a pause is not "while pumping")
+    starts = np.flatnonzero(gap)
+    for i in peaks:
+        k = int(np.searchsorted(starts, i, side="right"))
+        end = int(starts[k]) if k < starts.size else n
+        seg = pm[i + 1:end]
+        if seg.size == 0:
+            continue
+        above = np.flatnonzero(seg > pm[i])
+        stop = int(above[0]) if above.size else seg.size
+        if stop == 0:
+            continue
+        fall = pm[i] - seg[:stop]
+        drop_any = float(np.max(fall))
+        if drop_any < thresh:
+            continue
+        qi = None
+        held = stop
+        if q is not None:
+            qi = float(q[i])
+            cut = np.flatnonzero(q[i + 1:i + 1 + stop] < qi - _rate_tol(qi, q_noise))
+            held = int(cut[0]) if cut.size else stop
+        drop = float(np.max(fall[:held])) if held > 0 else 0.0
+        if drop >= thresh:
+            i_min = i + 1 + int(np.argmax(fall[:held]))
+            why = ("fell at an unchanged or higher pump rate" if q is not None
+                   else "fell while pumping (no rate logged)")
+            out.append((int(i), i_min, drop, BreakdownEvent(
+                t=float(t[i]), pressure=float(pm[i]), drop=drop, rate=qi, accepted=True,
+                reason=why)))
+        else:
+            t_cut = float(t[i + 1 + held]) if i + 1 + held < t.size else float(t[-1])
+            out.append((int(i), i + 1 + int(np.argmax(fall)), drop, BreakdownEvent(
+                t=float(t[i]), pressure=float(pm[i]), drop=drop_any, rate=qi,
+                accepted=False,
+                reason=f"the pressure fell {drop_any / 1e5:.1f} bar only with a cut of the "
+                       f"pump rate (at t = {t_cut:.0f} s): less friction, not breakdown")))
+    return out
+
+
+def pick_fbp(record: Record, cycle: Cycle) -> Pick:
+    """Formation breakdown pressure: the peak before the pressure falls at unchanged rate.
+
+    Breakdown is an event, not the largest pumping pressure: the formation gives way and the
+    pressure falls while the pumps keep running at the same rate (or a higher one: more
+    fluid and less pressure is breakdown itself). At a raised rate the pumping pressure can
+    climb above the breakdown peak by friction alone, and at a cut rate it falls by friction
+    alone; neither is breakdown. The pumping samples of the cycle (every pump phase) are
+    smoothed by a 3-sample running median (a single spike does not count) and every local
+    peak is followed (:func:`_fbp_events`) until the pressure is back above it or pumping
+    pauses; its fall counts while the rate holds -- not below the peak's rate by more than
+    ``max(RATE_STEADY_FRACTION, 4 sigma_q / q_peak)`` of it -- and must exceed
+    ``max(5 sigma, 2 q, 0.5 % of the peak)`` (``sigma`` the noise, ``q`` the quantisation
+    step). The FBP is the peak with the largest such fall (the breakdown; later falls are
+    smaller propagation steps); a peak whose pressure falls only once the rate is cut is
+    reported as rejected. Without a rate log every fall while pumping counts.
+
+    The interval spans the running-median peak and the raw maximum near it, ``± q/2``, and the
+    rise the pressure could still make within one sample interval.
 
     Returns
     -------
     Pick
-        ``name="FBP"``, ``method="max"``; not found when the pressure never fell while pumping.
+        ``name="FBP"``, ``method="max"``; not found when the pressure never fell while pumping
+        at an unchanged rate. Details: :class:`~xlotkit.interpret.picks.details.
+        BreakdownDetails` (every peak examined in ``events``).
     """
     idx = _pump_samples(record, cycle)
     if idx.size < 5:
@@ -671,37 +756,67 @@ def pick_fbp(record: Record, cycle: Cycle) -> Pick:
     p = record.pressure[idx]
     t = record.t[idx]
     pm = _running_median(p, 3)
-    ipk = int(np.argmax(pm))
     sig = noise_level(p)
     q = quantum(p)
-    after = pm[ipk:]
-    drop = float(pm[ipk] - after.min()) if after.size > 1 else 0.0
-    thresh = max(5 * sig, 2 * q, 0.005 * abs(pm[ipk]))
-    details = {"drop_after_peak": drop, "drop_threshold": thresh, "sigma": sig, "quantum": q,
-               "raw_max": float(p.max())}
-    if drop < thresh:
-        return Pick.not_found("FBP", "max", "no breakdown: the pressure did not fall while "
-                              f"pumping (drop {drop / 1e5:.2f} bar after the peak)",
-                              details=details)
+    gap = np.concatenate([[False], np.diff(idx) > 1])
+    rate = None
+    if record.rate is not None and np.any(np.isfinite(record.rate[idx])):
+        rate = _running_median(np.nan_to_num(record.rate[idx]), 3)
+    top = float(np.max(pm))
+    thresh = max(5 * sig, 2 * q, 0.005 * abs(top))
+    q_noise = 4.0 * noise_level(rate) if rate is not None else 0.0
+    events = _fbp_events(pm, t, rate, gap, thresh, q_noise)
+    i_top = int(np.argmax(pm))
+    accepted = [e for e in events if e[3].accepted]
+    details = BreakdownDetails(
+        drop_after_peak=0.0, drop_threshold=thresh, sigma=sig, quantum=q,
+        raw_max=float(p.max()), highest_pumping_pressure=top,
+        rate_tolerance=None, events=tuple(e[3] for e in events))
+    if not accepted:
+        rejected = [e for e in events if not e[3].accepted]
+        why = "no breakdown: the pressure never fell while pumping"
+        if rate is not None:
+            why += " with the pump rate held"
+        if rejected:
+            big = max(rejected, key=lambda e: e[2])
+            why += (f" (the largest fall, {big[2] / 1e5:.1f} bar after {big[3].pressure / 1e5:.1f}"
+                    f" bar at t = {big[3].t:.0f} s: {big[3].reason})")
+        else:
+            tail = float(pm[i_top] - np.min(pm[i_top:]))
+            why += f" (fall after the highest pressure {tail / 1e5:.2f} bar)"
+        return Pick.not_found("FBP", "max", why, details=details)
+    ipk, _, drop, ev = max(accepted, key=lambda e: (e[2], -e[0]))
     value = float(pm[ipk])
     # The peak lies between samples: the pressure can have risen further, for up to one
     # sample interval, at the rate it was rising before the highest sample (a brittle
     # breakdown turns over within a sample), and the running median trims a one-sample
     # peak to its neighbours.
-    i_raw = int(np.argmax(p))
+    lo_i, hi_i = max(0, ipk - 2), min(p.size, ipk + 3)
+    i_raw = lo_i + int(np.argmax(p[lo_i:hi_i]))
     k0 = max(0, i_raw - 5)
     rise = 0.0
     if i_raw - k0 >= 2:
         rise = max(float(np.polyfit(t[k0:i_raw + 1], p[k0:i_raw + 1], 1)[0]), 0.0)
     dt_s = float(np.median(np.diff(t))) if t.size > 1 else 0.0
-    top = max(value, float(p.max()))
-    bud = budget(value, stderr=sig, trials=[float(p.max())], resolution=0.5 * q,
-                 extra=[("between samples", top, top + rise * dt_s)])
-    details.update({"rise_rate": rise, "interval": bud})
+    peak_top = max(value, float(p[i_raw]))
+    bud = budget(value, stderr=sig, trials=[float(p[i_raw])], resolution=0.5 * q,
+                 extra=[("between samples", peak_top, peak_top + rise * dt_s)])
+    details = replace(details, drop_after_peak=drop, rise_rate=rise, interval=bud,
+                      raw_max=float(p[i_raw]), rate_at_peak=ev.rate,
+                      rate_tolerance=None if rate is None else _rate_tol(ev.rate, q_noise))
     qual: PickQuality = "good" if drop > 3 * thresh else "fair"
+    msg = f"pressure fell {drop / 1e5:.1f} bar after the peak"
+    if rate is not None:
+        msg += f" at an unchanged or higher pump rate ({ev.rate * 6e4:.0f} l/min at the peak)"
+    else:
+        msg += " while pumping (no rate logged: a rate change cannot be ruled out)"
+        if qual == "good":
+            qual = "fair"
+    if top - value > thresh:
+        msg += (f"; the highest pumping pressure, {top / 1e5:.1f} bar at t = {t[i_top]:.0f} s,"
+                " is not a breakdown (no fall at an unchanged rate after it)")
     return Pick("FBP", "max", value, bud.low, bud.high, t=float(t[ipk]),
-                window=(float(t[0]), float(t[-1])), quality=qual,
-                message=f"pressure fell {drop / 1e5:.1f} bar after the peak while pumping",
+                window=(float(t[0]), float(t[-1])), quality=qual, message=msg,
                 details=details, level=bud.level)
 
 
@@ -767,16 +882,16 @@ def pick_fpp(record: Record, cycle: Cycle, *, window: tuple[float, float] | None
     se = 1.25 * max(float(np.std(p)), sig) / np.sqrt(n)
     low, high = min(thirds + [value]) - se, max(thirds + [value]) + se
     trend = fit_line(t, p) if n >= 3 else None
-    details: dict[str, Any] = {"n": n, "trend": trend.slope if trend else np.nan,
-                               "trend_stderr": trend.slope_stderr if trend else np.nan,
-                               "std": float(np.std(p)), "thirds": thirds}
     msg = ""
+    cv = None
     if record.rate is not None:
         r = record.rate[(record.t >= t[0]) & (record.t <= t[-1])]
         cv = float(np.std(r) / np.mean(r)) if np.mean(r) > 0 else np.inf
-        details["rate_cv"] = cv
         if cv > 0.1:
             msg = f"pump rate not constant on the plateau (variation {100 * cv:.0f} %)"
+    details = PlateauDetails(n=int(n), trend=float(trend.slope) if trend else np.nan,
+                             trend_stderr=float(trend.slope_stderr) if trend else np.nan,
+                             std=float(np.std(p)), thirds=tuple(thirds), rate_cv=cv)
     rel = (high - low) / abs(value) if value else np.inf
     q: PickQuality = "good" if rel < 0.01 and n >= 30 else ("fair" if rel < 0.04 else "poor")
     if msg and q == "good":
@@ -856,7 +971,7 @@ def early_decline(t: np.ndarray, p: np.ndarray, t_s: float, *,
     q = quantum(p)
     pm = _running_median(p, 5)
     best = None
-    for d in range(0, max(1, n // 3)):
+    for d in range(max(1, n // 3)):
         L = _early_length(pm, d, sig, q)
         if d + L > n:
             break
@@ -899,23 +1014,30 @@ def pick_isip(record: Record, cycle: Cycle, *, window: tuple[float, float] | Non
     the window is shifted by -/+ a quarter of the skipped samples and shortened/lengthened by a
     third.
 
+    Every cycle with a pump stop followed by a shut-in gets one, whatever its kind (XLOT,
+    LOT, DFIT, step-rate test, stimulation, line or casing test): the stop is that of the
+    injection, not of a later top-up (:func:`~xlotkit.interpret.picks.decline.stop_pump`).
+
     Parameters
     ----------
     window : (t0, t1), optional
-        Elapsed-time window [s] of the early decline, overriding the automatic choice.
+        Elapsed-time window [s] of the early decline, overriding the automatic choice; it may
+        reach past the end of the shut-in phase (the phases it crosses join the decline,
+        :func:`~xlotkit.interpret.picks.decline.decline`).
 
     Returns
     -------
     Pick
-        ``name="ISIP"``, ``method="tangent"``; details: slope [Pa/s], the drop from the last
-        pumping pressure to the ISIP ("friction_drop") [Pa].
+        ``name="ISIP"``, ``method="tangent"``; details (:class:`~xlotkit.interpret.picks.
+        details.IsipDetails`): slope [Pa/s], the drop from the last pumping pressure to the
+        ISIP (``friction_drop``) [Pa].
     """
-    shut = shutin_phase(cycle)
-    if shut is None:
-        return Pick.not_found("ISIP", "tangent", "the cycle has no shut-in after pumping")
-    t = record.t[shut.i0:shut.i1]
-    p = record.pressure[shut.i0:shut.i1]
-    t_s = shutin_time(record, cycle, shut)
+    dec = decline(record, cycle, window)
+    if dec is None:
+        return Pick.not_found("ISIP", "tangent", no_shutin_reason(cycle))
+    t = record.t[dec.i0:dec.i1]
+    p = record.pressure[dec.i0:dec.i1]
+    t_s = dec.t_stop
     ed = early_decline(t, p, t_s, window=window)
     if ed is None:
         return Pick.not_found("ISIP", "tangent",
@@ -946,7 +1068,7 @@ def pick_isip(record: Record, cycle: Cycle, *, window: tuple[float, float] | Non
     # is convex in time from pump stop on): the G line through the same window is the
     # third reading (G for alpha = 1, as the shut-in picks use).
     pumps_ = pump_phases(cycle)
-    t_pump = max(t_s - pumps_[0].t_start, 1.0) if pumps_ else 0.0
+    t_pump = max(t_s - pumps_[0].t_start, 1.0)
     if t_pump > 0 and b - a >= 3:
         d = np.clip(dt[a:b], 0.0, None) / t_pump
         G = 4.0 / np.pi * (4.0 / 3.0 * ((1.0 + d) ** 1.5 - d ** 1.5) - 4.0 / 3.0)
@@ -968,16 +1090,39 @@ def pick_isip(record: Record, cycle: Cycle, *, window: tuple[float, float] | Non
     seg = p[a:b]
     bud = budget(value, stderr=s, inflation=correlation_inflation(seg - ed.fit(dt[a:b])),
                  trials=vals, resolution=0.5 * quantum(p), extra=extra)
+    pump = dec.pump
+    last_p = float(np.median(record.pressure[max(pump.i1 - 3, pump.i0):pump.i1]))
+    details = IsipDetails(
+        slope=float(ed.fit.slope), slope_stderr=float(ed.fit.slope_stderr),
+        intercept_stderr=float(s), r2=float(ed.fit.r2), n=int(ed.fit.n), sigma=float(ed.sigma),
+        t_shut_in=float(t_s), last_pumping_pressure=last_p, friction_drop=last_p - value,
+        trial_values=tuple(float(v) for v in vals), skipped_samples=int(ed.j0),
+        interval=bud, pump_window=(float(pump.t_start), float(pump.t_end)),
+        data_window=(float(t[0]), float(t[-1])))
+    msg = "; ".join(dec.notes)
     pumps = pump_phases(cycle)
-    last_p = float(np.median(record.pressure[max(pumps[-1].i1 - 3, pumps[-1].i0):pumps[-1].i1]))
-    details = {"slope": ed.fit.slope, "slope_stderr": ed.fit.slope_stderr,
-               "intercept_stderr": s, "r2": ed.fit.r2, "n": ed.fit.n, "sigma": ed.sigma,
-               "t_shut_in": t_s, "last_pumping_pressure": last_p,
-               "friction_drop": last_p - value, "trial_values": vals,
-               "skipped_samples": ed.j0, "interval": bud}
+    if pump is not pumps[-1]:
+        later = [ph for ph in pumps if ph.t_start > pump.t_start]
+        msg = "; ".join(x for x in (msg, f"at the stop of the injection at t = {t_s:.0f} s "
+                                    f"(the {len(later)} later, smaller pump phase"
+                                    f"{'s' if len(later) > 1 else ''} are top-ups)") if x)
     r2 = ed.fit.r2 if ed.fit.n >= 3 else 0.0
     q = quality(max(r2, 0.98 if ed.fit.residual_std <= 2 * ed.sigma else r2), value, low, high,
                 ed.fit.n)
     return Pick("ISIP", "tangent", float(value), bud.low, bud.high, t=t_s,
-                window=(float(t[ed.j0]), float(t[ed.j1])), quality=q, details=details,
-                level=bud.level)
+                window=(float(t[ed.j0]), float(t[ed.j1])), quality=q, message=msg,
+                details=details, level=bud.level)
+
+
+def no_shutin_reason(cycle: Cycle) -> str:
+    """Why a cycle has no pump stop followed by a shut-in, in words."""
+    pumps = pump_phases(cycle)
+    if not pumps:
+        return "the cycle has no pump phase"
+    kinds = [ph.kind for ph in cycle.phases]
+    after = []
+    for ph in pumps:
+        k = next(j for j, q in enumerate(cycle.phases) if q is ph)
+        after.append(kinds[k + 1] if k + 1 < len(kinds) else "the end of the cycle")
+    what = ", ".join(sorted(set(a.replace("_", "-") for a in after)))
+    return f"no shut-in after pumping: the pumps stopped into {what}"

@@ -1,10 +1,32 @@
 """Fracture closure pressure (FCP) from a shut-in decline, by five methods.
 
-All methods work on the cycle's shut-in phase (the first ``shut_in`` phase after the cycle's
-last pump phase) and leave out the rapid drop right after pump stop (pipe friction, water
-hammer): fits start where the early decline line of
-:func:`~xlotkit.interpret.picks.pressurisation.early_decline` starts, so closure is never picked
-inside the pump-off drop.
+All methods work on the decline after the cycle's pump stop (the shut-in that follows the
+injection, :func:`~xlotkit.interpret.picks.decline.stop_pump`; a user window extends it over
+the phase boundaries it crosses, :func:`~xlotkit.interpret.picks.decline.decline`) and leave
+out the rapid drop right after pump stop (pipe friction, water hammer): fits start where the
+early decline line of :func:`~xlotkit.interpret.picks.pressurisation.early_decline` starts.
+
+Closure candidates at a boundary
+--------------------------------
+A decline ends where something is done to the well: a valve is opened for a bleed or a
+flowback, the pumps restart, the record ends. The segmentation places that boundary from
+filtered rates, so the operation often starts a few samples before it -- and its onset is a
+sharp, lasting change of slope, which is what closure looks like. Hence:
+
+* the **boundary zone** (:func:`~xlotkit.interpret.picks.boundary.boundary_zone`, reported as
+  :class:`~xlotkit.interpret.picks.details.BoundaryZone`) is left out of every fit: the last
+  :data:`~xlotkit.interpret.picks.boundary.BOUNDARY_MARGIN_SAMPLES` samples at least, and further back from where the decline
+  already moves at the next phase's own rate or jumps off its line (the operation's own
+  onset in this record, never a fixed number of seconds);
+* a slope break must be seen to **last** inside the analysed decline (:func:`_scan_break`
+  with ``confirm``): a new slope that runs straight into the next phase cannot be told from
+  the operation;
+* the break the scan finds on the whole decline, zone included, when it needs the zone,
+  is reported as a :class:`~xlotkit.interpret.picks.details.RejectedCandidate` "at the phase
+  boundary" with the reason, in the pick's ``details.rejected`` and its message;
+* a candidate above the ISIP or before the early decline starts is **inside the pump-off
+  drop** and rejected with that reason (:func:`_reject_reason`), as is one in the zone or
+  below the decline.
 
 Methods (``SHUTIN_METHODS``):
 
@@ -36,12 +58,26 @@ sample-to-sample differences, because field pressures are quantised to 1 bar.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
 
 from xlotkit.interpret.phases import Cycle
+from xlotkit.interpret.picks.boundary import boundary_zone, window_slopes
+from xlotkit.interpret.picks.decline import decline
+from xlotkit.interpret.picks.details import (
+    BilinearDetails,
+    BoundaryZone,
+    ComplianceDetails,
+    DepartureDetails,
+    LineDetails,
+    RejectedCandidate,
+    ShutinDepartureDetails,
+    ShutinDetails,
+    SlopeBreakDetails,
+    TangentDetails,
+)
 from xlotkit.interpret.picks.intervals import (
     IntervalBudget,
     budget,
@@ -58,12 +94,11 @@ from xlotkit.interpret.picks.pressurisation import (
     early_decline,
     linear_stretch,
     local_fit,
+    no_shutin_reason,
     noise_level,
     pump_phases,
-    quantum,
     quality,
-    shutin_phase,
-    shutin_time,
+    quantum,
 )
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.record import Record
@@ -116,7 +151,7 @@ def g_function(dt, t_pump: float, alpha: float = 1.0):
 # ===================================================================== shared data
 @dataclass(frozen=True)
 class _Shut:
-    t: np.ndarray           # shut-in sample times [s]
+    t: np.ndarray           # analysed decline sample times [s] (up to the boundary zone)
     p: np.ndarray           # pressures [Pa]
     dt: np.ndarray          # time since shut-in [s]
     t_s: float              # shut-in time [s]
@@ -125,6 +160,19 @@ class _Shut:
     isip: float             # ISIP [Pa]
     sigma: float            # noise [Pa]
     early: EarlyDecline | None
+    t_all: np.ndarray       # the whole decline, boundary zone included [s]
+    p_all: np.ndarray       # [Pa]
+    zone: BoundaryZone      # the end of the decline where the next phase already acts
+    overridden: bool        # a user window moved the end of the decline
+    notes: tuple[str, ...]  # boundaries a user window overrode
+    cache: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def context(self) -> dict[str, Any]:
+        """The :class:`~xlotkit.interpret.picks.details.ShutinDetails` fields."""
+        return {"isip": self.isip, "t_shut_in": self.t_s, "t_pump": self.t_pump,
+                "drop_samples_skipped": self.j0,
+                "data_window": (float(self.t[0]), float(self.t[-1])),
+                "boundary": self.zone, "rejected": self.cache.get("rejected", ())}
 
 
 def _isip_value(isip: Any) -> float | None:
@@ -135,49 +183,81 @@ def _isip_value(isip: Any) -> float | None:
     return float(isip)
 
 
-def _prepare(record: Record, cycle: Cycle, method: str, isip: Any
-             ) -> tuple[_Shut | None, Pick | None]:
-    """Shut-in data with the rapid drop located, or a not-found pick saying why."""
-    shut = shutin_phase(cycle)
-    if shut is None:
-        return None, Pick.not_found("FCP", method, "the cycle has no shut-in after pumping")
-    t = record.t[shut.i0:shut.i1]
-    p = record.pressure[shut.i0:shut.i1]
+def _prepare(record: Record, cycle: Cycle, method: str, isip: Any,
+             window: tuple[float, float] | None = None) -> tuple[_Shut | None, Pick | None]:
+    """Shut-in data with the rapid drop and the boundary zone located, or a not-found pick
+    saying why. ``window`` (a user window) extends the decline over the phase boundaries it
+    crosses (:func:`~xlotkit.interpret.picks.decline.decline`)."""
+    dec = decline(record, cycle, window)
+    if dec is None:
+        return None, Pick.not_found("FCP", method, no_shutin_reason(cycle))
+    t = record.t[dec.i0:dec.i1]
+    p = record.pressure[dec.i0:dec.i1]
     if t.size < MIN_SHUTIN_POINTS:
         return None, Pick.not_found("FCP", method, f"shut-in too short ({t.size} samples)")
-    t_s = shutin_time(record, cycle, shut)
+    t_s = dec.t_stop
     ed = early_decline(t, p, t_s)
     j0 = ed.j0 if ed is not None else 0
     if isinstance(isip, Pick) and isip.window is not None:
         j0 = max(j0, int(np.searchsorted(t, isip.window[0])))
-    if t.size - j0 < MIN_SHUTIN_POINTS:
-        return None, Pick.not_found("FCP", method, f"shut-in too short after the pump-off drop "
-                                    f"({t.size - j0} samples)")
+    sigma = noise_level(p)
+    zone = boundary_zone(record, t, p, j0, dec, sigma)
+    end = int(np.searchsorted(t, zone.t_start))
+    if end - j0 < MIN_SHUTIN_POINTS:
+        return None, Pick.not_found(
+            "FCP", method, f"shut-in too short after the pump-off drop and before "
+            f"{zone.describe()} ({max(end - j0, 0)} samples)")
     pumps = pump_phases(cycle)
     t_pump = max(t_s - pumps[0].t_start, 1.0)
     iv = _isip_value(isip)
     if iv is None:
         iv = ed.fit.intercept if ed is not None else float(p[j0])
-    return _Shut(t, p, t - t_s, t_s, j0, t_pump, float(iv), noise_level(p), ed), None
+    return _Shut(t[:end], p[:end], t[:end] - t_s, t_s, j0, t_pump, float(iv), sigma, ed,
+                 t, p, zone, dec.overridden, dec.notes), None
 
 
-def _finish(pick: Pick, sh: _Shut, extra: dict[str, Any]) -> Pick:
-    d = dict(pick.details)
-    d.update(extra)
-    d.setdefault("isip", sh.isip)
-    d.setdefault("t_shut_in", sh.t_s)
-    d.setdefault("t_pump", sh.t_pump)
-    d.setdefault("drop_samples_skipped", sh.j0)
-    return Pick(name="FCP", method=pick.method, value=pick.value, low=pick.low, high=pick.high,
-                t=pick.t, window=pick.window, quality=pick.quality, message=pick.message,
-                details=d, level=pick.level)
+def _finish(pick: Pick, sh: _Shut) -> Pick:
+    """The pick with the decline's context in its details (a ShutinDetails) and the user
+    window's notes in its message."""
+    ctx = sh.context()
+    d = pick.details
+    if isinstance(d, ShutinDetails):
+        d = replace(d, **ctx)
+    elif isinstance(d, DepartureDetails):
+        d = ShutinDepartureDetails(departure=d, **ctx)
+    else:
+        d = ShutinDetails(**ctx)
+    msg = "; ".join(m for m in (pick.message, *sh.notes) if m)
+    return replace(pick, name="FCP", details=d, message=msg)
+
+
+def _reject_reason(sh: _Shut, value: float | None, t_pick: float | None = None) -> str | None:
+    """Why a closure candidate cannot be closure, or None when it can.
+
+    Inside the pump-off drop: above the ISIP (the friction and water-hammer drop is not the
+    fracture's decline) or before the early decline starts. At the phase boundary: in the
+    boundary zone (:func:`~xlotkit.interpret.picks.boundary.boundary_zone`). Below the decline: lower than the lowest
+    analysed pressure.
+    """
+    if value is None or not np.isfinite(value):
+        return "no finite value"
+    if value > sh.isip + 3 * sh.sigma:
+        return (f"inside the pump-off drop: {value / 1e5:.1f} bar is above the ISIP "
+                f"({sh.isip / 1e5:.1f} bar)")
+    if t_pick is not None and np.isfinite(t_pick):
+        if t_pick < float(sh.t[sh.j0]) - 1e-9:
+            return (f"inside the pump-off drop: before the early decline starts at t = "
+                    f"{sh.t[sh.j0]:.0f} s")
+        if t_pick >= sh.zone.t_start:
+            return f"at the phase boundary: inside the zone before {sh.zone.describe()}"
+    if value < float(np.min(sh.p[sh.j0:])) - 3 * sh.sigma:
+        return "below the lowest pressure of the analysed decline"
+    return None
 
 
 def _inside(sh: _Shut, value: float | None) -> bool:
     """Closure must lie inside the decline: below the ISIP, above the last pressure."""
-    if value is None or not np.isfinite(value):
-        return False
-    return float(np.min(sh.p[sh.j0:])) - 3 * sh.sigma <= value <= sh.isip + 3 * sh.sigma
+    return _reject_reason(sh, value) is None
 
 
 def _pressure_at(sh: _Shut, tt: float) -> float:
@@ -205,30 +285,6 @@ BREAK_SCALES_LOCAL = (0.1, 0.2, 0.3)
 #: An earlier break of the other sense displaces the sharpest break when it scores at least
 #: this fraction of it (:func:`_find_break`).
 EARLIER_BREAK_FRACTION = 0.5
-
-
-def _window_slopes(x: np.ndarray, y: np.ndarray, lo: np.ndarray, hi: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least-squares slope of ``y(x)`` over samples ``[lo, hi)`` for every pair (O(n) sums).
-
-    Returns
-    -------
-    slope, n, sxx : ndarray
-        Slope (NaN for a degenerate window), number of samples and centred sum of squares of
-        x (the slope's variance is ``sigma^2 / sxx``).
-    """
-    xc, yc = x - x.mean(), y - y.mean()
-    z = np.zeros(1)
-    c1 = np.concatenate([z, np.cumsum(np.ones(x.size))])
-    cx, cy = np.concatenate([z, np.cumsum(xc)]), np.concatenate([z, np.cumsum(yc)])
-    cxx = np.concatenate([z, np.cumsum(xc * xc)])
-    cxy = np.concatenate([z, np.cumsum(xc * yc)])
-    n = c1[hi] - c1[lo]
-    sx, sy = cx[hi] - cx[lo], cy[hi] - cy[lo]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sxx = (cxx[hi] - cxx[lo]) - sx * sx / n
-        slope = np.where(sxx > 0, ((cxy[hi] - cxy[lo]) - sx * sy / n) / sxx, np.nan)
-    return slope, n, np.where(sxx > 0, sxx, np.nan)
 
 
 @dataclass(frozen=True)
@@ -259,8 +315,8 @@ class _Break:
         return "stiffening" if self.ratio > 1.0 else "flattening"
 
 
-def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float = 0.0
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float = 0.0,
+                confirm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Score of a slope break at every sample, for window ``w``.
 
     Three adjacent windows of width ``w`` in G: ``LL`` and ``L`` before the sample, ``R``
@@ -272,15 +328,25 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     ``q`` the pressure must fall by at least ``3 q`` across a window: over less, a window's
     slope depends on where the steps of the staircase fall (errors that are not independent,
     so the standard error understates them).
+
+    Lasting: a window further on (``RR``, to ``2 w`` after the sample) keeps at least half
+    the jump; where the data end before it, that passes. With ``confirm`` (a width ``c`` of
+    G, the finest scan window) the new slope must also be seen to last inside the data:
+    the window from ``c`` to ``2 c`` after the sample (widened to ``MIN_LINE_POINTS``
+    samples where the sampling is sparser) must lie inside the data, and it and the first
+    ``c`` after the sample must each keep half the jump (the new slope holds from the break
+    on) -- a break whose new slope runs straight into the
+    data end (the next phase, the end of the record) cannot be told from the operation that
+    ends the decline.
     """
     n = G.size
     i = np.arange(n)
     l1 = np.searchsorted(G, G - w, "left")
     l2 = np.searchsorted(G, G - 2 * w, "left")
     r1 = np.searchsorted(G, G + w, "right")
-    sL, nL, xL = _window_slopes(G, p, l1, i + 1)
-    sLL, nLL, xLL = _window_slopes(G, p, l2, np.maximum(l1, l2 + 1))
-    sR, nR, xR = _window_slopes(G, p, i, r1)
+    sL, nL, xL = window_slopes(G, p, l1, i + 1)
+    sLL, nLL, xLL = window_slopes(G, p, l2, np.maximum(l1, l2 + 1))
+    sR, nR, xR = window_slopes(G, p, i, r1)
     ok = ((nL >= MIN_LINE_POINTS) & (nLL >= MIN_LINE_POINTS) & (nR >= MIN_LINE_POINTS)
           & (G[np.clip(r1 - 1, 0, n - 1)] - G >= 0.6 * w) & (G - G[l2] >= 1.6 * w))
     jump, trend = sR - sL, sL - sLL
@@ -295,15 +361,33 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     # Lasting: where there is data a window further on, the slope there keeps at least half
     # the jump (a blip of the derivative is not closure).
     r2 = np.searchsorted(G, G + 2 * w, "right")
-    sRR, nRR, _ = _window_slopes(G, p, np.minimum(r1, n - 1), r2)
+    sRR, nRR, _ = window_slopes(G, p, np.minimum(r1, n - 1), r2)
     far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
     with np.errstate(invalid="ignore"):
         good &= ~far | (np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump))
+    if confirm is not None:
+        c1 = np.searchsorted(G, G + confirm, "right")
+        c2 = np.searchsorted(G, G + 2 * confirm, "right")
+        # a window too narrow for a line is widened to MIN_LINE_POINTS samples (sparse
+        # sampling), which must then exist
+        wide = c2 - c1 < MIN_LINE_POINTS
+        c2 = np.where(wide, c1 + MIN_LINE_POINTS, c2)
+        seen = np.where(wide, c2 <= n,
+                        G[np.clip(c2 - 1, 0, n - 1)] - G >= 1.6 * confirm)
+        sC, nC, _ = window_slopes(G, p, np.minimum(c1, n - 1), np.minimum(c2, n))
+        # and from the break on: the first c after it (at least MIN_LINE_POINTS samples)
+        e1 = np.maximum(c1, i + MIN_LINE_POINTS)
+        sC0, nC0, _ = window_slopes(G, p, i, np.minimum(e1, n))
+        seen &= (nC >= MIN_LINE_POINTS) & (nC0 >= MIN_LINE_POINTS)
+        with np.errstate(invalid="ignore"):
+            good &= seen & (np.sign(jump) * (sC - sL) >= 0.5 * np.abs(jump)) \
+                & (np.sign(jump) * (sC0 - sL) >= 0.5 * np.abs(jump))
     return np.where(good, score, -np.inf), sL, sR
 
 
-def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
-    """Closure as the sharpest significant, lasting change of slope of p vs G, or None.
+def _best_break(G: np.ndarray, p: np.ndarray, t: np.ndarray, sigma: float,
+                confirm: bool) -> _Break | None:
+    """The closure break of p vs G (``t`` the samples' times), or None.
 
     The sharpest break (highest score over the windows :data:`BREAK_SCALES`) is closure
     unless an earlier break of the other sense (stiffening before a flattening, or the
@@ -313,30 +397,29 @@ def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
     after-closure flow bending towards the reservoir pressure), and that later change can
     be the sharper one; closure comes first. A later break of the *same* sense is not
     displaced (a gradual stiffening, such as height recession, shows early breaks of the
-    same sense that are not closure).
+    same sense that are not closure). With ``confirm`` a break must be seen to last inside
+    the data (:func:`_scan_break`).
     """
-    sl = slice(sh.j0, None)
-    G = g_function(sh.dt[sl], sh.t_pump, alpha)
-    p = sh.p[sl]
-    span = float(G[-1] - G[0])
+    span = float(G[-1] - G[0]) if G.size else 0.0
     if not span > 0:
         return None
     # A noise-free record still has round-off; the floor keeps the score finite.
-    sigma = max(sh.sigma, 1e-7 * float(np.max(np.abs(p))))
+    sigma = max(sigma, 1e-7 * float(np.max(np.abs(p))))
     q = quantum(p)
     best: _Break | None = None
     candidates: list[_Break] = []
+    conf = BREAK_SCALES[0] * span if confirm else None
     widths = [f * span for f in BREAK_SCALES] + [f * G for f in BREAK_SCALES_LOCAL]
     for j, w in enumerate(widths):
-        score, sL, sR = _scan_break(G, p, w, sigma, q)
+        score, sL, sR = _scan_break(G, p, w, sigma, q, confirm=conf)
         ok = np.isfinite(score)
         edges = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
         # One candidate per run of admissible samples: its highest score.
         for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
             k = a + int(np.argmax(score[a:b]))
             wk = float(w[k]) if np.ndim(w) else float(w)
-            c = _Break(k, float(G[k]), float(sh.t[sh.j0 + k]), wk, float(sL[k]),
-                       float(sR[k]), float(score[k]))
+            c = _Break(k, float(G[k]), float(t[k]), wk, float(sL[k]), float(sR[k]),
+                       float(score[k]))
             candidates.append(c)
             if j < len(BREAK_SCALES) and (best is None or c.score > best.score):
                 best = c
@@ -347,7 +430,51 @@ def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
     return max(earlier, key=lambda c: c.score) if earlier else best
 
 
+def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
+    """Closure as the sharpest significant, lasting change of slope of p vs G, or None.
+
+    Searched on the decline up to its boundary zone (:func:`_best_break`), a break must be
+    seen to last there. The break the search finds on the whole decline, boundary zone
+    included, is kept in ``sh.cache["rejected"]`` when its new slope needs samples of the
+    zone: a candidate at the phase boundary, rejected with that reason.
+    """
+    key = ("break", alpha)
+    if key in sh.cache:
+        return sh.cache[key]
+    sl = slice(sh.j0, None)
+    G = g_function(sh.dt[sl], sh.t_pump, alpha)
+    best = _best_break(G, sh.p[sl], sh.t[sl], sh.sigma, confirm=True)
+    rejected = list(sh.cache.get("rejected", ()))
+    if sh.t_all.size > sh.t.size:
+        G_all = g_function(sh.t_all[sh.j0:] - sh.t_s, sh.t_pump, alpha)
+        t_all, p_all = sh.t_all[sh.j0:], sh.p_all[sh.j0:]
+        cand = _best_break(G_all, p_all, t_all, sh.sigma, confirm=False)
+        if cand is not None:
+            # the new slope is seen to last over 1.6 c of G after the break (_scan_break)
+            c = BREAK_SCALES[0] * float(G_all[-1] - G_all[0])
+            t_conf = float(np.interp(cand.G + 1.6 * c, G_all, t_all))
+            if t_conf >= sh.zone.t_start or cand.t >= sh.zone.t_start:
+                z = sh.zone
+                what = ("the end of the record" if z.next_phase == "end of record"
+                        else f"the {z.next_phase.replace('_', '-')} at t = {z.t_boundary:.0f} s")
+                why = (f"at the phase boundary: its new slope runs into {what} "
+                       f"({z.onset} from t = {z.t_start:.0f} s) and is not seen to last "
+                       "before it")
+                if all(abs(r.t - cand.t) > 1e-6 for r in rejected):
+                    rejected.append(RejectedCandidate(
+                        t=cand.t, pressure=float(p_all[cand.i]), where="phase boundary",
+                        reason=why, slope_ratio=float(cand.ratio)))
+    sh.cache["rejected"] = tuple(rejected)
+    sh.cache[key] = best
+    return best
+
+
 def _no_break_message(sh: _Shut) -> str:
+    rej = sh.cache.get("rejected", ())
+    if rej:
+        return ("no closure in the record before the phase boundary: the decline shows no "
+                f"significant, lasting change of slope before {sh.zone.describe()}; rejected: "
+                + "; ".join(r.describe() for r in rej))
     return ("no closure in the record: the decline shows no significant, lasting change of "
             f"slope to the end of the shut-in ({sh.dt[-1]:.0f} s after pump stop)")
 
@@ -415,20 +542,25 @@ def _break_pick(sh: _Shut, brk: _Break, method: str, x: np.ndarray, x_name: str,
     h, sel = base
     value = float(h.y0)
     xs = x[sel]
-    details: dict[str, Any] = {
+    details = SlopeBreakDetails(
+        x_name=x_name,
         # The line before closure (drawn on plots; on the G plot m G through the origin is
         # then the tangent to G dP/dG at closure).
-        "slope": h.s1, "slope_stderr": h.s1_stderr, "intercept": h.y0 - h.s1 * h.x0,
-        f"{x_name}_range": (float(xs[0]), float(h.x0)),
-        "line_after": {"slope": h.s2, "intercept": h.y0 - h.s2 * h.x0,
-                       f"{x_name}_range": (float(h.x0), float(xs[-1]))},
-        f"{x_name}_pick": h.x0, f"{x_name}_pick_stderr": h.x0_stderr,
-        "slope_after": h.s2, "closure_signature": brk.kind, "slope_ratio": brk.ratio,
-        "break_score": brk.score, "r2": h.r2, "n": h.n,
-    }
-    if not _inside(sh, value):
-        return Pick.not_found("FCP", method, "no closure in the record: the slope break lies "
-                              "outside the decline", details=details)
+        line_before=LineDetails(slope=float(h.s1), slope_stderr=float(h.s1_stderr),
+                                intercept=float(h.y0 - h.s1 * h.x0),
+                                x_range=(float(xs[0]), float(h.x0))),
+        line_after=LineDetails(slope=float(h.s2), slope_stderr=float(h.s2_stderr),
+                               intercept=float(h.y0 - h.s2 * h.x0),
+                               x_range=(float(h.x0), float(xs[-1]))),
+        x_range=(float(xs[0]), float(h.x0)), x_pick=float(h.x0),
+        x_pick_stderr=float(h.x0_stderr), closure_signature=brk.kind,
+        slope_ratio=float(brk.ratio), break_score=float(brk.score), r2=float(h.r2),
+        n=int(h.n))
+    t_pick = float(np.interp(h.x0, xs, t[sel]))
+    why = _reject_reason(sh, value, t_pick)
+    if why is not None:
+        return Pick.not_found("FCP", method, f"closure candidate at {value / 1e5:.1f} bar "
+                              f"rejected: {why}", details=details)
     vals = [value]
     for scale in (0.6, 1.5):
         r = _break_fit(x, p, t, brk, G, scale)
@@ -441,12 +573,9 @@ def _break_pick(sh: _Shut, brk: _Break, method: str, x: np.ndarray, x_name: str,
     res = _sample_resolution(xs, h.s1, h.s2, h.x0)
     # Quality grades the fit (R^2 and its own width), as before intervals had a level.
     q = quality(h.r2, value, min(vals) - max(s, res), max(vals) + max(s, res), h.n)
-    t_pick = float(np.interp(h.x0, xs, t[sel]))
     bud = _shutin_budget(sh, brk, x, value, s, p[sel] - h(x[sel]), vals, res, t_pick, alpha)
-    details["trial_values"] = vals
-    details["breakpoint_stderr"] = s
-    details["sampling_resolution"] = res
-    details["interval"] = bud
+    details = replace(details, trial_values=tuple(float(v) for v in vals),
+                      breakpoint_stderr=s, sampling_resolution=float(res), interval=bud)
     return Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
                 window=(float(t[sel][0]), float(t[sel][-1])),
                 quality=q, message=f"slope break ({brk.kind}: dP/dG x{brk.ratio:.2f})",
@@ -503,7 +632,7 @@ def _shutin_budget(sh: _Shut, brk: _Break, x: np.ndarray, value: float, se: floa
 def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Callable,
                           x_name: str, *, window, isip, alpha: float = 1.0
                           ) -> tuple[Pick, Any, _Break | None]:
-    sh, nf = _prepare(record, cycle, method, isip)
+    sh, nf = _prepare(record, cycle, method, isip, window)
     if sh is None:
         return nf, None, None
     sl = slice(sh.j0, None)
@@ -512,17 +641,19 @@ def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Calla
         brk = _find_break(sh, alpha)
         if brk is None:
             nf = Pick.not_found("FCP", method, _no_break_message(sh))
-            return _finish(nf, sh, {}), sh, None
-        return _finish(_break_pick(sh, brk, method, x, x_name, alpha), sh, {}), sh, brk
+            return _finish(nf, sh), sh, None
+        return _finish(_break_pick(sh, brk, method, x, x_name, alpha), sh), sh, brk
     # A user window is the straight stretch: closure is the first departure from it.
     stretch = _user_stretch(sh.t[sl], window)
     pick = departure_pick("FCP", method, x, sh.p[sl], sh.t[sl], slope_sign=-1,
                           stretch=stretch, noise=sh.sigma, x_name=x_name,
                           not_found_msg="no closure in the record", prefer_early=True)
-    if pick.found and not _inside(sh, pick.value):
-        pick = Pick.not_found("FCP", method, "no closure in the record: the departure lies "
-                              "outside the decline", window=pick.window, details=pick.details)
-    return _finish(pick, sh, {}), sh, None
+    if pick.found:
+        why = _reject_reason(sh, pick.value, pick.t)
+        if why is not None:
+            pick = Pick.not_found("FCP", method, f"departure at {pick.value / 1e5:.1f} bar "
+                                  f"rejected: {why}", window=pick.window, details=pick.details)
+    return _finish(pick, sh), sh, None
 
 
 def pick_fcp_sqrt_t(record: Record, cycle: Cycle, *, window: tuple[float, float] | None = None,
@@ -552,9 +683,9 @@ def pick_fcp_sqrt_t(record: Record, cycle: Cycle, *, window: tuple[float, float]
     Returns
     -------
     Pick
-        ``name="FCP"``, ``method="sqrt_t"``; ``details["slope"]`` is ``dP/dsqrt(t)``
-        [Pa/s^0.5] before closure (``details["slope_after"]`` after),
-        ``details["sqrt_t_pick"]`` the ``sqrt(dt)`` of closure. The interval covers the
+        ``name="FCP"``, ``method="sqrt_t"``; details (:class:`~xlotkit.interpret.picks.
+        details.SlopeBreakDetails`): ``slope`` is ``dP/dsqrt(t)`` [Pa/s^0.5] before closure
+        (``slope_after`` after), ``x_pick`` the ``sqrt(dt)`` of closure. The interval covers the
         breakpoint's standard error, the spread over fit spans and over residual-bootstrap
         copies of the data.
     """
@@ -577,7 +708,7 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
     of the decline (pressure-dependent leak-off, height recession) is not closure: with
     pressure-dependent leak-off closure is at the end of the hump, not where it starts.
 
-    The diagnosis (``details["diagnosis"]``) reads the shape of ``G dP/dG`` before closure
+    The diagnosis (``details.diagnosis``) reads the shape of ``G dP/dG`` before closure
     against the line ``m G`` through the origin tangent to it at closure (Barree et al.
     2009): ``normal``, ``pressure_dependent_leakoff``, ``tip_extension``,
     ``height_recession`` or ``undetermined`` -- the rule of
@@ -591,26 +722,27 @@ def pick_fcp_g_function(record: Record, cycle: Cycle, *,
     Returns
     -------
     Pick
-        ``name="FCP"``, ``method="g_function"``; ``details["diagnosis"]``, ``details["G_pick"]``
-        (G at closure), ``details["slope"]`` (``dP/dG`` [Pa] just before closure).
+        ``name="FCP"``, ``method="g_function"``; details (:class:`~xlotkit.interpret.picks.
+        details.SlopeBreakDetails`): ``diagnosis``, ``x_pick`` (G at closure), ``slope``
+        (``dP/dG`` [Pa] just before closure).
     """
     pick, sh, brk = _straight_line_method(
         record, cycle, "g_function", lambda s: g_function(s.dt, s.t_pump, alpha), "G",
         window=window, isip=isip, alpha=alpha)
     if sh is None:
-        d = dict(pick.details)
-        d["diagnosis"] = "undetermined"
-        return Pick.not_found("FCP", "g_function", pick.message, details=d)
+        return replace(pick, details=SlopeBreakDetails(x_name="G", diagnosis="undetermined",
+                                                       alpha=alpha))
     diagnosis, why = _diagnose(sh, pick, alpha)
-    d = dict(pick.details)
-    d["diagnosis"] = diagnosis
-    d["alpha"] = alpha
+    d = pick.details
+    if isinstance(d, (SlopeBreakDetails, ShutinDepartureDetails)):
+        d = replace(d, diagnosis=diagnosis, alpha=alpha)
+    else:
+        ctx = {f.name: getattr(d, f.name) for f in fields(ShutinDetails)}
+        d = SlopeBreakDetails(x_name="G", diagnosis=diagnosis, alpha=alpha, **ctx)
     msg = f"decline type: {diagnosis.replace('_', ' ')} ({why})"
     if pick.message:
         msg = pick.message + "; " + msg
-    return Pick(name=pick.name, method=pick.method, value=pick.value, low=pick.low,
-                high=pick.high, t=pick.t, window=pick.window, quality=pick.quality, message=msg,
-                details=d, level=pick.level)
+    return replace(pick, message=msg, details=d)
 
 
 def _diagnose(sh: _Shut, pick: Pick, alpha: float) -> tuple[str, str]:
@@ -651,14 +783,17 @@ def _tangents_at_break(sh: _Shut, brk: _Break) -> Pick:
     fe, fl, pre, aft = base
     xs, sxs, ys, sys_ = intersect(fe, fl)
     ie, il = np.flatnonzero(pre), np.flatnonzero(aft)
-    details = {"early_slope": fe.slope, "early_slope_stderr": fe.slope_stderr,
-               "late_slope": fl.slope, "late_slope_stderr": fl.slope_stderr,
-               "early_window": (float(sh.t[ie[0]]), float(sh.t[ie[-1]])),
-               "late_window": (float(sh.t[il[0]]), float(sh.t[il[-1]])),
-               "r2_early": fe.r2, "r2_late": fl.r2, "closure_signature": brk.kind}
-    if not np.isfinite(ys) or not _inside(sh, ys):
+    details = TangentDetails(early=LineDetails.of(fe), late=LineDetails.of(fl),
+                             early_window=(float(sh.t[ie[0]]), float(sh.t[ie[-1]])),
+                             late_window=(float(sh.t[il[0]]), float(sh.t[il[-1]])),
+                             closure_signature=brk.kind)
+    if not np.isfinite(ys):
         return Pick.not_found("FCP", method, "no closure in the record: the tangents do not "
-                              "meet inside the decline", details=details)
+                              "meet", details=details)
+    why = _reject_reason(sh, ys, float(sh.t_s + xs))
+    if why is not None:
+        return Pick.not_found("FCP", method, f"tangents meet at {ys / 1e5:.1f} bar: rejected: "
+                              f"{why}", details=details)
     vals = [ys]
     for scale in (0.6, 1.5):
         r = lines_at(scale)
@@ -673,10 +808,11 @@ def _tangents_at_break(sh: _Shut, brk: _Break) -> Pick:
     resid = np.concatenate([sh.p[pre] - fe(sh.dt[pre]), sh.p[aft] - fl(sh.dt[aft])])
     bud = _shutin_budget(sh, brk, sh.dt[sh.j0:], float(ys), s, resid, vals, res,
                          float(sh.t_s + xs))
-    details.update({"sampling_resolution": res, "t_intersection": sh.t_s + xs,
-                    "t_intersection_stderr": sxs,
-                    "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
-                    "intersection_stderr": s, "interval": bud})
+    details = replace(details, sampling_resolution=float(res),
+                      t_intersection=float(sh.t_s + xs), t_intersection_stderr=float(sxs),
+                      pressure_on_curve=_pressure_at(sh, sh.t_s + xs),
+                      trial_values=tuple(float(v) for v in vals), intersection_stderr=s,
+                      interval=bud)
     return Pick("FCP", method, float(ys), bud.low, bud.high, t=float(sh.t_s + xs),
                 window=(float(sh.t[ie[0]]), float(sh.t[il[-1]])), quality=q, details=details,
                 level=bud.level)
@@ -710,15 +846,17 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
         Fixed windows [s] of the early and the late line (override everything).
     """
     method = "tangent"
-    sh, nf = _prepare(record, cycle, method, isip)
+    spans = [w for w in ((window,) if lines is None else tuple(lines)) if w is not None]
+    reach = (min(w[0] for w in spans), max(w[1] for w in spans)) if spans else None
+    sh, nf = _prepare(record, cycle, method, isip, reach)
     if sh is None:
         return nf
     if lines is None:
         brk = _find_break(sh, 1.0)
         if brk is None:
-            return _finish(Pick.not_found("FCP", method, _no_break_message(sh)), sh, {})
+            return _finish(Pick.not_found("FCP", method, _no_break_message(sh)), sh)
         if window is None:
-            return _finish(_tangents_at_break(sh, brk), sh, {})
+            return _finish(_tangents_at_break(sh, brk), sh)
 
     def early_fit(shift: int = 0) -> tuple[LineFit, int, int] | None:
         if lines is not None:
@@ -755,21 +893,23 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
     lt = late_fit(0.15)
     if e is None or lt is None:
         return _finish(Pick.not_found("FCP", method, "could not fit the early or late tangent"),
-                       sh, {})
+                       sh)
     fe, ea, eb = e
     fl, la, lb = lt
     xs, sxs, ys, sys_ = intersect(fe, fl)
-    details = {"early_slope": fe.slope, "early_slope_stderr": fe.slope_stderr,
-               "late_slope": fl.slope, "late_slope_stderr": fl.slope_stderr,
-               "early_window": (float(sh.t[ea]), float(sh.t[eb])),
-               "late_window": (float(sh.t[la]), float(sh.t[lb])),
-               "r2_early": fe.r2, "r2_late": fl.r2}
+    details = TangentDetails(early=LineDetails.of(fe), late=LineDetails.of(fl),
+                             early_window=(float(sh.t[ea]), float(sh.t[eb])),
+                             late_window=(float(sh.t[la]), float(sh.t[lb])))
     ds = abs(fe.slope - fl.slope)
     sds = np.hypot(fe.slope_stderr, fl.slope_stderr)
     if not np.isfinite(xs) or ds <= 3 * np.nan_to_num(sds) or not (
-            sh.dt[eb] <= xs <= sh.dt[lb]) or not _inside(sh, ys):
+            sh.dt[eb] <= xs <= sh.dt[lb]):
         return _finish(Pick.not_found("FCP", method, "no closure in the record: the tangents do "
-                                      "not meet inside the decline", details=details), sh, {})
+                                      "not meet inside the decline", details=details), sh)
+    why = _reject_reason(sh, ys, float(sh.t_s + xs))
+    if why is not None:
+        return _finish(Pick.not_found("FCP", method, f"tangents meet at {ys / 1e5:.1f} bar: "
+                                      f"rejected: {why}", details=details), sh)
     vals = [ys]
     trial_specs = [(0, 0.1), (0, 0.25), (2, 0.15)] if lines is None else []
     for shift, frac in trial_specs:
@@ -784,13 +924,14 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
             vals.append(y2)
     s = np.nan_to_num(sys_)
     low, high = min(vals) - s, max(vals) + s
-    details.update({"t_intersection": sh.t_s + xs, "t_intersection_stderr": sxs,
-                    "pressure_on_curve": _pressure_at(sh, sh.t_s + xs), "trial_values": vals,
-                    "intersection_stderr": s})
+    details = replace(details, t_intersection=float(sh.t_s + xs),
+                      t_intersection_stderr=float(sxs),
+                      pressure_on_curve=_pressure_at(sh, sh.t_s + xs),
+                      trial_values=tuple(float(v) for v in vals), intersection_stderr=float(s))
     q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
     pick = Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
                 window=(float(sh.t[ea]), float(sh.t[lb])), quality=q, details=details)
-    return _finish(pick, sh, {})
+    return _finish(pick, sh)
 
 
 # ===================================================================== bilinear (Haimson)
@@ -817,12 +958,12 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
         Elapsed-time window [s] of the samples used (default all post-drop samples).
     """
     method = "bilinear"
-    sh, nf = _prepare(record, cycle, method, isip)
+    sh, nf = _prepare(record, cycle, method, isip, window)
     if sh is None:
         return nf
     gate = _closure_gate(sh, 1.0)
     if gate:
-        return _finish(Pick.not_found("FCP", method, gate), sh, {})
+        return _finish(Pick.not_found("FCP", method, gate), sh)
     t = sh.t[sh.j0:]
 
     def run(L: float, cut0: float, cut1: float):
@@ -844,14 +985,16 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     base = run(DERIVATIVE_L, 0.0, 0.0)
     if base is None:
         return _finish(Pick.not_found("FCP", method, "too few samples for the bilinear fit"),
-                       sh, {})
+                       sh)
     h, ps = base
-    details = {"s_closed": h.s1, "s_open": h.s2, "s_closed_stderr": h.s1_stderr,
-               "s_open_stderr": h.s2_stderr, "dpdt_at_closure": h.y0, "r2": h.r2, "n": h.n}
+    details = BilinearDetails(s_closed=float(h.s1), s_open=float(h.s2),
+                              s_closed_stderr=float(h.s1_stderr),
+                              s_open_stderr=float(h.s2_stderr), dpdt_at_closure=float(h.y0),
+                              r2=float(h.r2), n=int(h.n))
     sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
-    if abs(h.s1 - h.s2) <= 3 * sds or not _inside(sh, h.x0):
+    if abs(h.s1 - h.s2) <= 3 * sds:
         return _finish(Pick.not_found("FCP", method, "no closure in the record: dp/dt vs p is "
-                                      "a single line", details=details), sh, {})
+                                      "a single line", details=details), sh)
     vals = [h.x0]
     if window is None:
         for L, c0, c1 in ((0.05, 0, 0), (0.2, 0, 0), (DERIVATIVE_L, 0.1, 0), (DERIVATIVE_L, 0, .2)):
@@ -863,14 +1006,18 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     # Time of closure: when the smoothed pressure crossed the breakpoint.
     _, psm = _derivative_t(sh)
     k = int(np.argmax(psm <= h.x0)) if np.any(psm <= h.x0) else psm.size - 1
-    details.update({"trial_values": vals, "x0_stderr": s})
+    why = _reject_reason(sh, float(h.x0), float(t[k]))
+    if why is not None:
+        return _finish(Pick.not_found("FCP", method, f"closure candidate at {h.x0 / 1e5:.1f} "
+                                      f"bar rejected: {why}", details=details), sh)
     q = quality(h.r2, h.x0, low, high, h.n)
     bud = _derivative_budget(sh, float(h.x0), s, base[0].result.residual, vals, float(t[k]))
-    details["interval"] = bud
+    details = replace(details, trial_values=tuple(float(v) for v in vals), x0_stderr=float(s),
+                      interval=bud)
     pick = Pick("FCP", method, float(h.x0), bud.low, bud.high, t=float(t[k]),
                 window=(float(t[0]), float(t[-1])) if window is None else tuple(window),
                 quality=q, details=details, level=bud.level)
-    return _finish(pick, sh, {})
+    return _finish(pick, sh)
 
 
 # ===================================================================== compliance (McClure)
@@ -894,12 +1041,12 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
         Area-growth exponent of the G-function.
     """
     method = "compliance"
-    sh, nf = _prepare(record, cycle, method, isip)
+    sh, nf = _prepare(record, cycle, method, isip, window)
     if sh is None:
         return nf
     gate = _closure_gate(sh, alpha)
     if gate:
-        return _finish(Pick.not_found("FCP", method, gate), sh, {})
+        return _finish(Pick.not_found("FCP", method, gate), sh)
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
     p = sh.p[sl]
@@ -938,16 +1085,17 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     base = run(DERIVATIVE_L)
     if base is None:
         return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
-                                      "|dP/dG| does not rise after its minimum"), sh, {})
+                                      "|dP/dG| does not rise after its minimum"), sh)
     h, psm, g_end = base
-    details = {"G_pick": h.x0, "G_pick_stderr": h.x0_stderr, "dPdG_at_closure": -h.y0,
-               "s_before": h.s1, "s_after": h.s2, "r2": h.r2, "n": h.n, "alpha": alpha}
+    details = ComplianceDetails(G_pick=float(h.x0), G_pick_stderr=float(h.x0_stderr),
+                                dPdG_at_closure=float(-h.y0), s_before=float(h.s1),
+                                s_after=float(h.s2), r2=float(h.r2), n=int(h.n), alpha=alpha)
     sds = np.hypot(np.nan_to_num(h.s1_stderr), np.nan_to_num(h.s2_stderr))
     if not (h.s2 - h.s1 > 3 * sds and h.s2 > 0):
         return _finish(Pick.not_found("FCP", method, "no closure found by the compliance method: "
                                       "no significant stiffness increase (|dP/dG| does not "
                                       "rise)",
-                                      details=details), sh, {})
+                                      details=details), sh)
 
     def p_at(g0: float) -> float:
         return float(np.interp(g0, G, psm))
@@ -961,22 +1109,22 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     se = np.nan_to_num(h.x0_stderr)
     vals += [p_at(h.x0 - se), p_at(h.x0 + se)]
     vals = [v for v in vals if _inside(sh, v)]
-    if not _inside(sh, value):
-        return _finish(Pick.not_found("FCP", method, "no closure in the record: stiffness rise "
-                                      "outside the decline", details=details), sh, {})
-    low, high = min(vals), max(vals)
-    details["trial_values"] = vals
-    q = quality(h.r2, value, low, high, h.n)
     t_pick = float(np.interp(h.x0, G, t))
+    why = _reject_reason(sh, value, t_pick)
+    if why is not None:
+        return _finish(Pick.not_found("FCP", method, f"stiffness rise at {value / 1e5:.1f} bar "
+                                      f"rejected: {why}", details=details), sh)
+    low, high = min(vals), max(vals)
+    q = quality(h.r2, value, low, high, h.n)
     # The stiffness rises from the walls' first contact (the pick) to the end of the rise
     # (the largest |dP/dG|): the fracture closes over that span, which the interval covers.
     rise = [("stiffness rise", *sorted((p_at(g_end), value)))] if g_end > h.x0 else []
     bud = _derivative_budget(sh, value, 0.0, h.result.residual, vals, t_pick, alpha, rise)
-    details["interval"] = bud
+    details = replace(details, trial_values=tuple(float(v) for v in vals), interval=bud)
     pick = Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
                 window=(float(t[0]), float(t[-1])), quality=q, details=details,
                 level=bud.level)
-    return _finish(pick, sh, {})
+    return _finish(pick, sh)
 
 
 # ===================================================================== curves for plots

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
+
+if TYPE_CHECKING:
+    from xlotkit.interpret.picks.details import Details
 
 __all__ = ["Pick", "PickQuality"]
 
@@ -29,7 +31,7 @@ class Pick:
         Interval [Pa]. Where ``level`` is set it is meant to contain the true value with that
         probability and is built from every source of error the method knows (fit, windows,
         a gradual transition, the gauge's resolution; :mod:`~xlotkit.interpret.picks.
-        intervals`, the parts in ``details["interval"]``); otherwise it is the range of the
+        intervals`, the parts in ``details.interval``); otherwise it is the range of the
         fit's covariance and nearby windows, without a stated level.
     t : float or None
         Elapsed time of the pick [s].
@@ -39,9 +41,10 @@ class Pick:
         ``none`` when there is no value.
     message : str
         Human-readable note (why no value, diagnosis of the decline, ...).
-    details : Mapping[str, Any]
+    details : Details or None
         Method-specific numbers (fitted slopes, stiffnesses [Pa/m^3], R^2, G at closure, ...),
-        SI units.
+        SI units: one typed class per method family (:mod:`~xlotkit.interpret.picks.details`),
+        None when the method stopped before fitting anything.
     level : float or None
         Nominal coverage of ``[low, high]`` (e.g. 0.9), None when the interval states none.
     """
@@ -55,7 +58,7 @@ class Pick:
     window: tuple[float, float] | None = None
     quality: PickQuality = "good"
     message: str = ""
-    details: Mapping[str, Any] = field(default_factory=dict)
+    details: Details | None = None
     level: float | None = None
 
     @property

@@ -92,8 +92,12 @@ def _stress_lines(stress: Mapping[str, Any] | None, diagnostics) -> list[str]:
         out.append(f"No stress estimate: {stress.get('message', '')}")
     else:
         s = stress
+        cyc = s.get("source_cycles") or [s["source_cycle"]]
         out.append(f"Target depth {s['target_tvd_m']:g} m TVD; sigma_h from the consensus "
-                   f"closure of cycle {s['source_cycle']}.")
+                   f"closure of cycle{'s' if len(cyc) > 1 else ''} "
+                   f"{', '.join(str(c) for c in cyc)}.")
+        for o in s.get("outlier_cycles") or []:
+            out.append(f"Outlier: {o['reason']}")
         out.append(f"sigma_h = {_fmt(s['sigma_h_bar'])} bar [{_fmt(s['sigma_h_low_bar'])} - "
                    f"{_fmt(s['sigma_h_high_bar'])}] (90 % interval of the closure pick), "
                    f"{_fmt(s['sigma_h_emw_sg'], 3)} sg EMW")

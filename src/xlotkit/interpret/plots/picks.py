@@ -15,21 +15,30 @@ Conventions of every plot:
 * legends name things in words (``line before closure``, ``closed-fracture line``), never
   by internal keys.
 
-The fitted lines drawn are read from each pick's ``details`` (slopes and intercepts in SI,
-on the plot's own abscissa); derivatives shown (dP/d sqrt(t), dP/dG, G dP/dG, dp/dt) are
+The fitted lines drawn are read from each pick's typed ``details``
+(:mod:`~xlotkit.interpret.picks.details`: slopes and intercepts in SI, on the plot's own
+abscissa); derivatives shown (dP/d sqrt(t), dP/dG, G dP/dG, dp/dt) are
 local least-squares slopes over a sliding window, not raw differences, so that pressure
 quantised to 0.1-1 bar still gives a readable curve.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from xlotkit.interpret.picks.core import CyclePicks, RecordPicks
+from xlotkit.interpret.picks.details import (
+    BilinearDetails,
+    FlowbackDetails,
+    LineDetails,
+    PressurisationDetails,
+    ShutinDepartureDetails,
+    ShutinDetails,
+    SlopeBreakDetails,
+)
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.interpret.plots.labels import LabelPlacer
 from xlotkit.record import Record
@@ -125,14 +134,9 @@ def _shutin_time(record: Record, cp: CyclePicks) -> float | None:
     return float(record.t[sh.i0])
 
 
-def _line_xy(ln: Mapping[str, Any], x_range=None, pad: float = 0.15, n: int = 40):
-    s, c = float(ln["slope"]), float(ln["intercept"])
-    xr = x_range
-    if xr is None:
-        for k, v in ln.items():
-            if k.endswith("_range") and isinstance(v, (tuple, list)) and len(v) == 2:
-                xr = (float(v[0]), float(v[1]))
-                break
+def _line_xy(ln: LineDetails, x_range=None, pad: float = 0.15, n: int = 40):
+    s, c = float(ln.slope), float(ln.intercept)
+    xr = x_range if x_range is not None else ln.x_range
     if xr is None or not (np.isfinite(s) and np.isfinite(c)):
         return None, None
     span = xr[1] - xr[0]
@@ -147,6 +151,21 @@ def _draw_line(ax, ln, label: str, color: str, *, xscale=1.0, yscale=1.0, x_rang
         return
     ax.plot((xx - xshift) * xscale, yy * yscale, "--", color=color, lw=1.4, zorder=4,
             label=label)
+
+
+def _shutin_lines(pk: Pick) -> tuple[LineDetails | None, LineDetails | None]:
+    """The lines before and after closure of a sqrt(t) / G-function pick (on its own
+    abscissa): the two sides of the slope break, or the user's straight stretch."""
+    d = pk.details
+    if isinstance(d, SlopeBreakDetails):
+        return d.line_before, d.line_after
+    if isinstance(d, ShutinDepartureDetails) and d.departure is not None:
+        return d.departure.line, None
+    return None, None
+
+
+def _flowback_details(pk: Pick | None) -> FlowbackDetails | None:
+    return pk.details if pk is not None and isinstance(pk.details, FlowbackDetails) else None
 
 
 def _finish(ax, xlabel: str, ylabel: str, title: str, placer: LabelPlacer | None = None,
@@ -209,6 +228,13 @@ def plot_overview(record_picks: RecordPicks) -> Figure:
                 continue
             placer.add(ax, pk.t / 60, pk.value / _BAR, interval_text(pk),
                        _COLORS.get(pk.name, "k"))
+        rejected = {(r.t, r.pressure): r for pk in cp.picks if isinstance(pk.details, ShutinDetails)
+                    for r in pk.details.rejected}
+        for r in rejected.values():
+            lab = "closure candidate rejected (phase boundary / pump-off drop)"
+            ax.plot([r.t / 60], [r.pressure / _BAR], "X", color="0.4", ms=6, mew=0.5,
+                    mec="k", zorder=5, label=None if lab in seen else lab)
+            seen.add(lab)
         f = cp.fcp
         if f is not None and f.found and f.t is not None:
             if f.low is not None and f.high is not None:
@@ -270,12 +296,12 @@ def plot_p_v(record: Record, cp: CyclePicks) -> Figure:
     key = "LOP" if cp.get("LOP") is not None else "Pr"
     pk = cp.get(key)
     placer = LabelPlacer()
-    if pk is not None and "slope" in pk.details and "V_range" in pk.details:
-        stiff = pk.details.get("stiffness")
+    d = pk.details if pk is not None else None
+    if isinstance(d, PressurisationDetails) and d.x_name == "V":
+        stiff = d.stiffness
         lab = "pressurisation line" + (f" ({stiff / _BAR:.4g} bar/m³)" if stiff else "")
-        _draw_line(ax, {"slope": pk.details["slope"], "intercept": pk.details["intercept"],
-                        "x_range": pk.details["V_range"]}, lab, "tab:orange",
-                   xscale=1000, yscale=1 / _BAR, pad=0.3)
+        _draw_line(ax, d.departure.line, lab, "tab:orange", xscale=1000, yscale=1 / _BAR,
+                   pad=0.3)
     if pk is not None and pk.window is not None:
         _window(ax, *(np.interp(pk.window, tt, v) * 1000), label="straight stretch used")
     if pk is not None and pk.found and pk.t is not None:
@@ -326,6 +352,27 @@ def _closure_marks(ax, placer, cp, c, x, methods, y_of=None):
                    interval_text(pk, f"FCP by {METHOD_WORDS[m]}"), col)
 
 
+def _boundary_marks(ax, record: Record, pk: Pick | None, x_of) -> None:
+    """The boundary zone left out of the closure fits (its samples in grey) and the
+    candidates rejected there or in the pump-off drop (crosses), on the plot's abscissa
+    ``x_of(dt, details)`` of the time since pump stop."""
+    d = pk.details if pk is not None else None
+    if not isinstance(d, ShutinDetails) or d.t_shut_in is None or d.t_pump is None:
+        return
+    z = d.boundary
+    if z is not None:
+        sel = (record.t >= z.t_start) & (record.t <= z.t_end)
+        if sel.any():
+            ax.plot(x_of(record.t[sel] - d.t_shut_in, d), record.pressure[sel] / _BAR, ".",
+                    ms=3, color="0.55", zorder=3,
+                    label=f"boundary zone, left out ({z.onset}, before the "
+                          f"{z.next_phase.replace('_', '-')})")
+    for k, r in enumerate(d.rejected):
+        ax.plot([x_of(np.array([r.t - d.t_shut_in]), d)[0]], [r.pressure / _BAR], "X",
+                color="tab:red", ms=8, mec="k", mew=0.6, zorder=6,
+                label=None if k else f"closure candidate rejected ({r.where})")
+
+
 def _consensus_band(ax, cp: CyclePicks) -> None:
     f = cp.fcp
     if f is not None and f.found:
@@ -346,18 +393,16 @@ def plot_sqrt_t(record: Record, cp: CyclePicks) -> Figure:
     pk = cp.get("FCP", "sqrt_t")
     placer = LabelPlacer()
     if pk is not None and pk.found:
-        d = pk.details
-        if "slope" in d and "sqrt_t_range" in d:
-            _draw_line(ax, {"slope": d["slope"], "intercept": d["intercept"],
-                            "x_range": d["sqrt_t_range"]}, "line before closure", "k",
-                       yscale=1 / _BAR)
-        la = d.get("line_after")
-        if isinstance(la, Mapping):
-            _draw_line(ax, la, "line after closure", "tab:red", yscale=1 / _BAR)
+        before, after = _shutin_lines(pk)
+        if before is not None:
+            _draw_line(ax, before, "line before closure", "k", yscale=1 / _BAR)
+        if after is not None:
+            _draw_line(ax, after, "line after closure", "tab:red", yscale=1 / _BAR)
         if pk.window is not None:
             _window(ax, _x_of_t(c, x, pk.window[0]), _x_of_t(c, x, pk.window[1]))
         _hband(ax, pk, _METHOD_COLORS["sqrt_t"])
     _closure_marks(ax, placer, cp, c, x, ("sqrt_t",))
+    _boundary_marks(ax, record, pk, lambda d, sh: np.sqrt(np.maximum(d, 0.0)))
     _consensus_band(ax, cp)
     ax2 = ax.twinx()
     ax2.plot(x, -c["dp_dsqrt_t"] / _BAR, color="tab:red", lw=0.7, alpha=0.7,
@@ -393,15 +438,14 @@ def plot_g_function(record: Record, cp: CyclePicks, diagnosis=None) -> Figure:
     ax.plot(G, p / _BAR, ".", ms=2, color="tab:blue", label="shut-in pressure (left axis)")
     placer = LabelPlacer()
     if pk is not None and pk.found:
-        d = pk.details
-        if "slope" in d and "G_range" in d:
-            _draw_line(ax, {"slope": d["slope"], "intercept": d["intercept"],
-                            "x_range": d["G_range"]}, "pressure line before closure", "k",
-                       yscale=1 / _BAR)
+        before, _ = _shutin_lines(pk)
+        if before is not None:
+            _draw_line(ax, before, "pressure line before closure", "k", yscale=1 / _BAR)
         if pk.window is not None:
             _window(ax, _x_of_t(c, G, pk.window[0]), _x_of_t(c, G, pk.window[1]))
         _hband(ax, pk, _METHOD_COLORS["g_function"])
     _closure_marks(ax, placer, cp, c, G, ("g_function", "compliance"))
+    _boundary_marks(ax, record, pk, lambda d, sh: g_function(d / sh.t_pump))
     ax2 = ax.twinx()
     ax2.plot(G, c["G_dp_dG"] / _BAR, color="tab:red", lw=1.1, label="G·dP/dG (right axis)")
     ax2.plot(G, -c["dp_dG"] / _BAR, color="tab:orange", lw=0.8, alpha=0.8,
@@ -438,12 +482,13 @@ def plot_bilinear(record: Record, cp: CyclePicks) -> Figure:
     ax.plot(p / _BAR, dpdt / _BAR * 60, ".", ms=2, color="tab:blue", label="decay rate dp/dt")
     pk = cp.get("FCP", "bilinear")
     placer = LabelPlacer()
-    d = pk.details if pk is not None else {}
-    if pk is not None and pk.found and {"s_closed", "s_open", "dpdt_at_closure"} <= set(d):
-        x0, y0 = float(pk.value), float(d["dpdt_at_closure"])
-        for s, (a, b), col, lab in ((d["s_closed"], (p.min(), x0), "tab:red",
+    d = pk.details if pk is not None else None
+    if pk is not None and pk.found and isinstance(d, BilinearDetails) \
+            and None not in (d.s_closed, d.s_open, d.dpdt_at_closure):
+        x0, y0 = float(pk.value), float(d.dpdt_at_closure)
+        for s, (a, b), col, lab in ((d.s_closed, (p.min(), x0), "tab:red",
                                      "closed-fracture line"),
-                                    (d["s_open"], (x0, p.max()), "tab:orange",
+                                    (d.s_open, (x0, p.max()), "tab:orange",
                                      "open-fracture line")):
             xx = np.linspace(a, b, 20)
             ax.plot(xx / _BAR, (y0 + s * (xx - x0)) / _BAR * 60, "--", color=col, lw=1.2,
@@ -482,20 +527,19 @@ def plot_flowback_sqrt_p(record: Record, cp: CyclePicks) -> Figure:
             label="√(choke pressure)")
     pk = cp.get("FCP", "flowback_sqrt_p")
     placer = LabelPlacer()
-    if pk is not None and "line_open" in pk.details:
-        d = pk.details
-        for key, col, lab, wkey in (
-                ("line_open", "tab:orange", "open-fracture line (compliant)", "window_open"),
-                ("line_closed", "tab:red", "closed-fracture line (stiff)", "window_closed")):
-            _draw_line(ax, d[key], lab, col, yscale=1 / np.sqrt(_BAR), xshift=t0, pad=0.3)
-            w = d.get(wkey)
+    d = _flowback_details(pk)
+    if d is not None and d.line_open is not None and d.line_closed is not None:
+        for ln, w, col, lab in (
+                (d.line_open, d.window_open, "tab:orange", "open-fracture line (compliant)"),
+                (d.line_closed, d.window_closed, "tab:red", "closed-fracture line (stiff)")):
+            _draw_line(ax, ln, lab, col, yscale=1 / np.sqrt(_BAR), xshift=t0, pad=0.3)
             if w is not None:
                 ax.axvspan(w[0] - t0, w[1] - t0, color=col, alpha=0.07, lw=0,
                            label=f"window of the {lab.split(' (')[0]}")
-    if pk is not None and pk.found:
-        tc = pk.details["t_closure"] - t0
-        yc = pk.details["sqrt_p_closure"] / np.sqrt(_BAR)
-        off = pk.value - pk.details["sqrt_p_closure"] ** 2
+    if pk is not None and pk.found and d is not None and d.sqrt_p_closure is not None:
+        tc = d.t_closure - t0
+        yc = d.sqrt_p_closure / np.sqrt(_BAR)
+        off = pk.value - d.sqrt_p_closure ** 2
 
         def fy(pp):
             return np.sqrt(max(pp - off, 0.0)) / np.sqrt(_BAR)
@@ -532,23 +576,22 @@ def plot_flowback_p_v(record: Record, cp: CyclePicks) -> Figure:
     ax.plot(v * 1000, p / _BAR, ".", ms=2, color="tab:blue", label=f"flowback ({src})")
     pk = cp.get("FCP", "flowback_p_v")
     placer = LabelPlacer()
-    if pk is not None and "line_open" in pk.details:
-        d = pk.details
+    d = _flowback_details(pk)
+    if d is not None and d.line_open is not None and d.line_closed is not None:
         vm = np.maximum.accumulate(v)
-        for key, col, lab, skey, wkey in (
-                ("line_open", "tab:orange", "open fracture", "stiffness_open", "window_open"),
-                ("line_closed", "tab:red", "closed fracture", "stiffness_closed",
-                 "window_closed")):
-            _draw_line(ax, d[key], f"{lab}: stiffness {d[skey] / _BAR:.4g} bar/m³", col,
+        for ln, stiff, w, col, lab in (
+                (d.line_open, d.stiffness_open, d.window_open, "tab:orange", "open fracture"),
+                (d.line_closed, d.stiffness_closed, d.window_closed, "tab:red",
+                 "closed fracture")):
+            _draw_line(ax, ln, f"{lab}: stiffness {stiff / _BAR:.4g} bar/m³", col,
                        xscale=1000, yscale=1 / _BAR, pad=0.3)
-            w = d.get(wkey)
             if w is not None:
                 ax.axvspan(*(np.interp(w, t, vm) * 1000), color=col, alpha=0.07, lw=0,
                            label=f"window of the {lab} line")
-    if pk is not None and pk.found:
+    if pk is not None and pk.found and d is not None and d.volume_closure is not None:
         _hband(ax, pk, "tab:green")
-        placer.add(ax, pk.details["volume_closure"] * 1000, pk.value / _BAR,
-                   interval_text(pk), "tab:green")
+        placer.add(ax, d.volume_closure * 1000, pk.value / _BAR, interval_text(pk),
+                   "tab:green")
     elif pk is not None:
         placer.note(ax, f"closure not found: {pk.message[:200]}")
     _margin(ax)
