@@ -234,12 +234,16 @@ def test_pressure_only_on_a_downhole_gauge_with_hydrostatic_base():
 
 
 def test_options_are_validated():
-    with pytest.raises(InputError, match="pump_rate_off"):
-        SegmentOptions(pump_rate_on=1e-4, pump_rate_off=2e-4)
+    with pytest.raises(InputError, match="pump_off"):
+        SegmentOptions(pump_on=0.01, pump_off=0.02)
     with pytest.raises(InputError, match="bleed_fraction"):
         SegmentOptions(bleed_fraction=1.5)
-    with pytest.raises(InputError, match="idle_band"):
-        SegmentOptions(idle_band=-1.0)
+    with pytest.raises(InputError, match="idle_fraction"):
+        SegmentOptions(idle_fraction=-1.0)
+    with pytest.raises(InputError, match="smooth_samples"):
+        SegmentOptions(smooth_samples=2.5)
+    with pytest.raises(InputError, match="acceleration"):
+        SegmentOptions(acceleration=0.5)
 
 
 def test_empty_and_flat_records():

@@ -84,6 +84,7 @@ from xlotkit.interpret.phases import Cycle, Segmentation, segment
 from xlotkit.interpret.picks import pressurisation, shutin
 from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
 from xlotkit.interpret.picks.models import fit_line
+from xlotkit.interpret.picks.steprate import pick_fep_entry
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.quiet import captured
 from xlotkit.record import Record
@@ -112,7 +113,9 @@ FCP_METHODS = SHUTIN_METHOD_NAMES + FLOWBACK_METHODS
 #: Methods that accept fixed tangents (two time windows).
 TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
 #: Cycle kinds that get pressure picks.
-TEST_KINDS = ("lot", "xlot")
+TEST_KINDS = ("lot", "xlot", "dfit", "step_rate", "stimulation")
+#: Kinds pumped through breakdown into propagation (FBP, FPP picked).
+PROPAGATION_KINDS = ("xlot", "dfit", "stimulation")
 
 _Window = tuple[float, float]
 
@@ -224,6 +227,7 @@ METHODS: tuple[MethodEntry, ...] = (
     MethodEntry("Pr", "auto", "pump", _reopening),
     MethodEntry("FPP", "auto", "pump", _fpp),
     MethodEntry("ISIP", "auto", "shut_in", _isip),
+    MethodEntry("FEP", "two_line", "pump", pick_fep_entry),
     MethodEntry("FCP", "tangent", "shut_in", _fcp_tangent, takes_tangents=True),
     MethodEntry("FCP", "sqrt_t", "shut_in", _fcp_sqrt_t),
     MethodEntry("FCP", "g_function", "shut_in", _fcp_g_function),
@@ -717,12 +721,14 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
     first = previous is None
     if first:
         picks.append(press("LOP"))
-        if cycle.kind == "xlot":
+        if cycle.kind in PROPAGATION_KINDS:
             picks.append(press("FBP"))
     else:
         picks.append(press("Pr"))
-    if cycle.kind == "xlot":
+    if cycle.kind in PROPAGATION_KINDS:
         picks.append(press("FPP"))
+    if cycle.kind == "step_rate":
+        picks.append(press("FEP"))
     isip = press("ISIP")
     picks.append(isip)
 

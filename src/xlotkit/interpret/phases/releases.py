@@ -1,0 +1,164 @@
+"""Releases of pressure (bleed, flowback) and the evidence they are declared from.
+
+A fall of pressure while the pump is off is leak-off (a shut-in) unless something shows the
+well was opened: returns logged (return rate, growing return volume, a pumped-volume
+totaliser running back), an operator remark, or a decline the shut-in's own leak-off cannot
+explain. Leak-off only slows down with time, so a fall that is ``acceleration`` times faster
+than the decline just before it, and takes away most of the pressure above base, is a release;
+so is a fall that starts at pump stop and reaches base in a small fraction of the pumping
+time. No fall rate in bar/min is fixed: the reference is always the same record's decline.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from xlotkit.interpret.phases.options import SegmentOptions
+from xlotkit.interpret.phases.signal import (
+    bridge,
+    cum_positive,
+    drop_short,
+    hysteresis,
+    running_median,
+    runs,
+    slope,
+)
+from xlotkit.interpret.phases.types import ReleaseEvidence
+from xlotkit.record import Record
+
+__all__ = ["Release", "find_releases", "return_flow"]
+
+_RELEASE_WORDS = ("bleed", "bled", "flow back", "flowback", "flow-back", "open", "release",
+                  "vent", "choke")
+
+
+@dataclass(frozen=True)
+class Release:
+    """A release over samples ``[a, b)`` (from its highest to its lowest point)."""
+
+    a: int
+    b: int
+    evidence: tuple[ReleaseEvidence, ...]
+
+
+def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
+                opt: SegmentOptions) -> tuple[np.ndarray, bool]:
+    """Samples where fluid comes back, and whether the record logs returns at all.
+
+    From the return rate (hysteresis at ``return_on``/``return_off`` of the pump rate
+    scale, or of the return rate's own scale when no pump rate is logged), a growing return
+    volume, or a pumped-volume totaliser that runs back while the pump is off (one
+    sample's fall larger than twice what the pump moves in one sample at its rate scale is a
+    totaliser reset). Returns shorter than ``2 min_phase_samples`` are a valve cycled, not a
+    flowback.
+    """
+    t = record.t
+    n = record.n
+    returns = np.zeros(n, bool)
+    have = False
+    half = opt.settle_samples // 2 + 1
+    scale = rate_scale
+    if record.return_rate is not None:
+        rq = running_median(np.nan_to_num(record.return_rate), opt.rate_filter_samples)
+        if not scale:
+            scale = float(np.max(rq)) if rq.size else 0.0
+        have = True
+        if scale and scale > 0:
+            returns |= hysteresis(rq, opt.return_on * scale, opt.return_off * scale)
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0]) if n > 1 else 1.0)
+    if record.return_volume is not None:
+        have = True
+        cv = cum_positive(record.return_volume)
+        if not scale:
+            scale = float(np.max(running_median(np.clip(slope(t, cv, half), 0, None),
+                                                opt.rate_filter_samples)))
+        if scale and scale > 0:
+            returns |= slope(t, cv, half) > opt.return_on * scale
+    if record.volume is not None and scale and scale > 0:
+        v = np.nan_to_num(record.volume)
+        dv = np.diff(v, prepend=v[:1])
+        small_fall = np.where((dv < 0) & (-dv <= 2.0 * scale * dt), dv, 0.0)
+        falling = slope(t, np.cumsum(small_fall), half) < -opt.return_on * scale
+        returns |= falling & free
+    returns = drop_short(bridge(returns & free, 3 * opt.gap_samples),
+                         2 * opt.min_phase_samples)
+    return returns & free, have
+
+
+def _remark(record: Record, t0: float, t1: float) -> bool:
+    return any(t0 <= e.t <= t1 and any(w in e.text.lower() for w in _RELEASE_WORDS)
+               for e in record.events)
+
+
+def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.ndarray,
+                  base: float, noise: float, opt: SegmentOptions, *,
+                  pressure_only: bool) -> list[Release]:
+    """Releases of pressure while the pump is off (module docstring).
+
+    A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
+    rate of the ``3 settle_samples`` before it (pumping samples excluded) and the noise of
+    the slope; it runs to the lowest point of the fall that follows. It is a release when it
+    takes away ``bleed_fraction`` of the pressure above base, with evidence: a remark; an
+    accelerated decline after a shut-in of at least ``2 settle_samples``; or, right at pump
+    stop, a fall to within a fifth of the pressure above base in less than ``fast_release``
+    of the pumping time.
+    """
+    t = record.t
+    n = ps.size
+    free = ~pump
+    f = -dpdt
+    h = opt.slope_half
+    i = np.arange(n)
+    span_t = t[np.clip(i + h, 0, n - 1)] - t[np.clip(i - h, 0, n - 1)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        floor = np.where(span_t > 0, opt.noise_multiple * noise * np.sqrt(2.0) / span_t, np.inf)
+    import pandas as pd
+
+    w = 3 * opt.settle_samples
+    g = 2 * h + 1
+    quiet = np.where(free, f, np.nan)
+    ref = pd.Series(quiet).rolling(w, min_periods=max(3, w // 4)).median().to_numpy()
+    ref = np.concatenate([np.full(g, np.nan), ref[:-g]]) if n > g else np.full(n, np.nan)
+    ref = np.where(np.isfinite(ref), np.maximum(ref, 0.0), 0.0)
+    cand = free & (f > floor) & (f >= opt.acceleration * np.maximum(ref, floor))
+    out: list[Release] = []
+    pump_runs = runs(pump)
+    for a, b in runs(bridge(cand, opt.gap_samples) & free):
+        fmax = float(np.max(f[a:b]))
+        while b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):
+            b += 1
+        k = a + int(np.argmax(ps[a:b]))
+        a0 = max(k - 2 * h, 0)
+        while a0 < k and not free[a0]:
+            a0 += 1
+        a = a0 + int(np.argmax(ps[a0:k + 1]))
+        b = a + int(np.argmin(ps[a:b])) + 1
+        if b - a < 2:
+            continue
+        excess = float(ps[a] - base)
+        if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
+            continue
+        ev: list[ReleaseEvidence] = []
+        if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
+            ev.append(ReleaseEvidence.REMARK)
+        before = [r for r in pump_runs if r[1] <= a]
+        pe = before[-1][1] if before else 0
+        if a - pe >= 2 * opt.settle_samples:
+            # accelerated past the decline the shut-in had just before the fall
+            ref_a = float(np.median(f[max(pe + opt.settle_samples, a - w): a - g // 2]))
+            ref_a = max(ref_a, float(floor[a]))
+            if float(np.max(f[a:b])) >= opt.acceleration * ref_a:
+                ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
+        elif before:
+            tp = float(t[before[-1][1] - 1] - t[before[-1][0]])
+            near_base = ps[b - 1] - base <= 0.2 * excess
+            if tp > 0 and near_base and t[b - 1] - t[a] < opt.fast_release * tp:
+                ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
+        if not ev:
+            continue
+        if pressure_only:
+            ev.append(ReleaseEvidence.PRESSURE_ONLY)
+        out.append(Release(a, b, tuple(ev)))
+    return out
