@@ -8,17 +8,19 @@ comparison: its pressurisation is far stiffer, on far less volume, than the well
 
 Rules, in order (thresholds: :class:`~xlotkit.interpret.phases.options.SegmentOptions`):
 
-1. ``line_test``: the cycle's pressurisation stiffness dp/dV is ``line_test_stiffness``
-   times that of the softest other cycle, or it was pressurised with less than
-   ``line_test_volume`` of the largest volume pumped into a cycle (no metered volume at all:
-   an unmetered test pump). Needs a metered volume and another cycle to compare with.
+1. ``line_test``: pressurised with less than ``line_test_volume`` of the largest volume
+   pumped to a cycle's peak (no metered volume at all: an unmetered test pump), or with
+   less than ten times that and a pressurisation stiffness dp/dV ``line_test_stiffness``
+   times that of the softest other cycle. Needs a metered volume and another cycle to
+   compare with (a record holding a line test alone calls it a casing test).
 2. ``step_rate``: pumped in at least ``min_rate_steps`` rate steps, each higher than the
    one before, with the pressure stabilised on each (it moves over the step's last third by
    at most ``rate_step_stable`` of the change into the step), and no breakdown: the
    pressure never rose more than ``xlot_fall`` of the gain above the highest stabilised
    level. (An XLOT whose rate was raised in steps after breakdown stays an XLOT.)
-3. ``stimulation``: pumped in at least ``min_rate_steps`` distinct rate steps that climb to
-   a highest rate and then step down again (a treatment with a step-down at its end).
+3. ``stimulation``: pumped in at least ``min_rate_steps`` rate levels (steps at least
+   ``4 rate_step_change`` of the highest rate apart) that climb to a highest rate and then
+   step down again (a treatment with a step-down at its end).
 4. The p-V curve of the pressurisation (every pumping sample up to the pump phase reaching
    the cycle's highest pressure; p against pumping time when no volume is known) gives the
    stiffness as a line between 15 % and 60 % of the gain and the departure as the first
@@ -27,9 +29,9 @@ Rules, in order (thresholds: :class:`~xlotkit.interpret.phases.options.SegmentOp
    it, or at least 0.15 times while the pressure flattened (gained less than 30 % of the
    linear trend), or fell by ``xlot_fall`` of the gain while pumping; ``lot`` when it
    departed but pumping stopped soon after.
-5. ``dfit``: a ``lot``/``xlot`` with one injection (no second pump phase before the falloff
-   ends), no flowback, and a shut-in at least ``dfit_falloff_ratio`` times the injection
-   time: a DFIT or mini-frac.
+5. ``dfit``: a ``lot``/``xlot`` with one injection (no second pump phase, and the falloff
+   not ended by pumping into the shut-in well), no flowback, and a shut-in at least
+   ``dfit_falloff_ratio`` times the injection time: a DFIT or mini-frac.
 6. No departure: ``casing_test`` when held (the pressure falls at most ``hold_max_drop`` of
    its height above base over up to ``hold_ratio`` times the pumping time, held at least
    ``min_hold_ratio`` times it), else ``other``.
@@ -157,6 +159,7 @@ class CycleShape:
     peak: float
     gain: float
     volume_to_peak: float | None
+    volume_pumped: float | None
     stiffness: float | None
     stiffness_text: str
     departure_text: str | None
@@ -225,8 +228,13 @@ def _event_hint(record: Record, members, lookback: int) -> str:
 
 
 def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: float,
-            pv_volume: np.ndarray | None, opt: SegmentOptions) -> CycleShape:
-    """Measure one cycle for :func:`classify` (module docstring, rule 4)."""
+            pv_volume: np.ndarray | None, opt: SegmentOptions, *,
+            repressurised: bool = False) -> CycleShape:
+    """Measure one cycle for :func:`classify` (module docstring, rule 4).
+
+    ``repressurised``: the cycle's shut-in is ended by the next cycle's pumping (no release
+    between), which a DFIT's falloff is not.
+    """
     t = record.t
     kmain = _main_pump(members)
     pumps = [ph for ph in members[: kmain + 1] if ph.kind == "pump"]
@@ -318,10 +326,12 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     has_flowback = any(ph.kind == "flowback" for ph in members)
     steps = rate_steps(record, pumps, opt, gain=gain)
     return CycleShape(head=head, p0=p0, peak=pk, gain=gain, volume_to_peak=vpk,
+                      volume_pumped=float(x_total) if have_v else None,
                       stiffness=None if stiff_v is None else float(stiff_v),
                       stiffness_text=stiff_text, departure_text=dep_text,
                       departed=dep is not None, xlot=xlot, fell_text=fell_text, held=held,
-                      held_text=held_text, single_injection=n_pumps == 1,
+                      held_text=held_text,
+                      single_injection=n_pumps == 1 and not repressurised,
                       falloff_ratio=shut / tp if tp > 0 else 0.0,
                       has_flowback=has_flowback, steps=steps, hint=hint)
 
@@ -334,7 +344,7 @@ def _steps_text(steps: tuple[RateStep, ...]) -> str:
 def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, str]]:
     """Kind and reason of every cycle of a record (module docstring)."""
     out: list[tuple[str, str]] = []
-    vols = [s.volume_to_peak for s in shapes if s.volume_to_peak is not None]
+    vols = [s.volume_pumped for s in shapes if s.volume_pumped is not None]
     vmax = max(vols) if vols else 0.0
     for i, s in enumerate(shapes):
         # ------------------------------------------------------------ line test
@@ -344,7 +354,8 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
             soft = min(others) if others else None
             tiny = vmax > 0 and s.volume_to_peak < opt.line_test_volume * vmax
             stiff = (soft is not None and s.stiffness is not None
-                     and s.stiffness >= opt.line_test_stiffness * soft)
+                     and s.stiffness >= opt.line_test_stiffness * soft
+                     and s.volume_to_peak < 10.0 * opt.line_test_volume * vmax)
             if tiny or stiff:
                 what = (f"stiffness {s.stiffness / _BAR / 1000.0:.2g} bar/l"
                         if s.stiffness is not None and np.isfinite(s.stiffness)
@@ -360,9 +371,16 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
             rates = [st.rate for st in s.steps]
             up = all(b > a for a, b in zip(rates, rates[1:]))
             top = int(np.argmax(rates))
-            up_down = (0 < top < len(rates) - 1
-                       and all(b > a for a, b in zip(rates[:top], rates[1:top + 1]))
-                       and all(b < a for a, b in zip(rates[top:], rates[top + 1:])))
+            # a treatment's stages: levels at least four rate steps apart, climbing to the
+            # highest rate and stepping down again
+            levels = [rates[0]]
+            for r in rates[1:]:
+                if abs(r - levels[-1]) >= 4 * opt.rate_step_change * max(rates):
+                    levels.append(r)
+            top = int(np.argmax(levels))
+            up_down = (len(levels) >= opt.min_rate_steps and 0 < top < len(levels) - 1
+                       and all(b > a for a, b in zip(levels[:top], levels[1:top + 1]))
+                       and all(b < a for a, b in zip(levels[top:], levels[top + 1:])))
             stable = all(st.stable for st in s.steps)
             # a breakdown before or on the steps leaves the peak above every stabilised level
             hump = (s.peak - max(st.pressure for st in s.steps)) / s.gain if s.gain > 0 else 0
@@ -373,8 +391,8 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
                                          f"{s.hint}"))
                 continue
             if up_down:
-                out.append(("stimulation", f"stimulation: {s.head}; {len(s.steps)} rate "
-                                           f"steps up to {rates[top] * 6e4:.4g} l/min and "
+                out.append(("stimulation", f"stimulation: {s.head}; {len(levels)} rate "
+                                           f"levels up to {levels[top] * 6e4:.4g} l/min and "
                                            f"down again: {txt}{s.fell_text}{s.hint}"))
                 continue
         # ------------------------------------------------------------ departure

@@ -18,7 +18,8 @@ __all__ = ["SegmentOptions"]
 
 #: Options that are fractions strictly between 0 and 1.
 _FRACTIONS = ("pump_on", "pump_off", "return_on", "return_off", "idle_fraction",
-              "leg_fraction", "cycle_fraction", "release_fraction", "bleed_fraction",
+              "leg_fraction", "cycle_fraction", "release_fraction", "restart_fraction",
+              "bleed_fraction",
               "fast_release", "unmetered_steepness", "rise_steepness", "rise_linearity",
               "rise_levelling", "rough_fraction",
               "step_fraction", "line_test_volume", "departure_tolerance", "xlot_fall",
@@ -78,6 +79,10 @@ class SegmentOptions:
         A pump phase opens a new cycle when, since the peak of the current one, the
         pressure has come down to within this fraction of that peak's height above base
         (or to the idle band); otherwise it is a stage or top-up of the current one [0.5].
+    restart_fraction : float
+        A pump phase from a shut-in well that pumps at least this fraction of the volume
+        (without a rate: of the pumping time) the current cycle has pumped so far opens a
+        new cycle: a second pressurisation, not a top-up [0.25].
     bleed_fraction : float
         A release (bleed / flowback) takes away at least this fraction of the pressure above
         base [0.6]; smaller fast falls (the step at pump stop) stay shut-in.
@@ -114,11 +119,12 @@ class SegmentOptions:
     step_contrast : float
         A sudden fall is this many times the fall just before and just after it [3].
     line_test_volume : float
-        A cycle pressurised with less than this fraction of the largest volume pumped into
-        any cycle of the record is a line test [0.005].
+        A cycle pressurised with less than this fraction of the largest volume pumped to a
+        cycle's peak in the record is a line test (lines against a closed valve take almost
+        nothing) [0.005].
     line_test_stiffness : float
-        A cycle whose pressurisation stiffness dp/dV is this many times that of the
-        softest cycle of the record is a line test (lines against a closed valve) [10].
+        So is a cycle pressurised with less than ten times that fraction whose stiffness
+        dp/dV is this many times that of the softest other cycle [20].
     departure_tolerance : float
         Fall below the early linear p-V trend, as a fraction of the pressure gain, that
         counts as a departure from linearity (leak-off) [0.05].
@@ -144,7 +150,7 @@ class SegmentOptions:
         pressure is the break between two lines through the steps, at least two on each.
     rate_step_change : float
         Rate levels differ when they differ by this fraction of the cycle's highest rate
-        [0.2]: an XLOT pumped a little faster or slower keeps one rate level.
+        [0.05].
     rate_step_stable : float
         A step is stabilised when the pressure moves over its last third by at most this
         fraction of the pressure change into it (or of the cycle's gain) [0.25].
@@ -169,6 +175,7 @@ class SegmentOptions:
     leg_fraction: float = 0.04
     cycle_fraction: float = 0.1
     release_fraction: float = 0.5
+    restart_fraction: float = 0.25
     bleed_fraction: float = 0.6
     acceleration: float = 3.0
     fast_release: float = 0.1
@@ -181,7 +188,7 @@ class SegmentOptions:
     step_fraction: float = 0.05
     step_contrast: float = 3.0
     line_test_volume: float = 0.005
-    line_test_stiffness: float = 10.0
+    line_test_stiffness: float = 20.0
     departure_tolerance: float = 0.05
     xlot_fall: float = 0.05
     xlot_past_ratio: float = 0.5
@@ -190,7 +197,7 @@ class SegmentOptions:
     hold_max_drop: float = 0.1
     dfit_falloff_ratio: float = 5.0
     min_rate_steps: int = 4
-    rate_step_change: float = 0.2
+    rate_step_change: float = 0.05
     rate_step_stable: float = 0.25
     base_dwell_fraction: float = 0.05
 

@@ -92,6 +92,24 @@ def _remark(record: Record, t0: float, t1: float) -> bool:
                for e in record.events)
 
 
+def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOptions) -> bool:
+    """Whether the fall rate ``f`` over ``[a, b)`` dies away gradually: from the last
+    sample at half its maximum to the first below a tenth takes more than
+    ``rise_levelling`` of the fall (and more than the smoothing windows)."""
+    seg = f[a:b]
+    top = float(np.max(seg))
+    if top <= 0:
+        return True
+    i50 = a + int(np.flatnonzero(seg >= 0.5 * top)[-1])
+    low = np.flatnonzero(f[i50:] < 0.1 * top)
+    e10 = i50 + int(low[0]) if low.size else f.size - 1
+    n = t.size
+    smooth = opt.smooth_samples + 2 * opt.slope_half
+    allow = max(opt.rise_levelling * float(t[min(e10, n - 1)] - t[a]),
+                float(t[min(i50 + smooth, n - 1)] - t[i50]))
+    return float(t[min(e10, n - 1)] - t[i50]) > allow
+
+
 def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.ndarray,
                   base: float, noise: float, opt: SegmentOptions, *,
                   pressure_only: bool) -> list[Release]:
@@ -100,10 +118,13 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
     rate of the ``3 settle_samples`` before it (pumping samples excluded) and the noise of
     the slope; it runs to the lowest point of the fall that follows. It is a release when it
-    takes away ``bleed_fraction`` of the pressure above base, with evidence: a remark; an
-    accelerated decline after a shut-in of at least ``2 settle_samples``; or, right at pump
-    stop, a fall to within a fifth of the pressure above base in less than ``fast_release``
-    of the pumping time.
+    takes away ``bleed_fraction`` of the pressure above base and ends abruptly (an opened
+    valve empties the well until it is shut or at base; leak-off that sped up when the
+    fracture closed and stiffened the system dies away gradually towards the formation's
+    pressure: :func:`_levels_off`), with evidence: a remark; an accelerated decline after a
+    shut-in of at least ``2 settle_samples``; or, right at pump stop, a fall to within a
+    fifth of the pressure above base in less than ``fast_release`` of the pumping time. A
+    fall that dies away gradually is a release only on a remark.
     """
     t = record.t
     n = ps.size
@@ -141,6 +162,15 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
         if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
             continue
         ev: list[ReleaseEvidence] = []
+        if _levels_off(t, f, a, b, opt):
+            # leak-off that sped up (the fracture closing stiffens the system) decays
+            # towards the formation's pressure; an opened valve empties the well until it
+            # is shut or at base: its fall ends abruptly
+            if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
+                out.append(Release(a, b, (ReleaseEvidence.REMARK,)
+                                   + ((ReleaseEvidence.PRESSURE_ONLY,) if pressure_only
+                                      else ())))
+            continue
         if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
             ev.append(ReleaseEvidence.REMARK)
         before = [r for r in pump_runs if r[1] <= a]

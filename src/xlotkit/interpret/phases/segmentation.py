@@ -198,7 +198,9 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
        (:mod:`~xlotkit.interpret.phases.releases`). The rest is ``shut_in`` above the idle
        band, ``idle`` below it.
     5. Cycles: a pump phase opens a cycle when the pressure had been released since the
-       current cycle's peak (else it is a stage or top-up of it) and the cycle builds a
+       current cycle's peak, or when it pumps from a shut-in well at least
+       ``restart_fraction`` of what the cycle pumped so far (else it is a stage or top-up of
+       the current cycle), and the cycle builds a
        ``cycle_fraction`` of the span above both base and its starting level. Without a rate,
        the cycle must also hold its pressure after pumping (a release at once is
        circulation). Pumping that opens no cycle from base is a flush: ``idle``.
@@ -382,6 +384,11 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
     indices it covers (trailing idle excluded).
     """
     pumps = [k for k, ph in enumerate(phases) if ph.kind == "pump"]
+    metered = any(phases[k].pumped_m3 > 0 for k in pumps)
+
+    def amount(ph: Phase) -> float:
+        return ph.pumped_m3 if metered else ph.duration
+
     groups: list[dict] = []
     for k in pumps:
         ph = phases[k]
@@ -392,13 +399,19 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
             low = float(np.min(ps[g["peak_i"]: ph.i0 + 1])) if ph.i0 > g["peak_i"] else ps[ph.i0]
             released = (low - base <= opt.release_fraction * (g["peak"] - base)
                         or p_start - base < band)
-            if not released:
+            # from a shut-in well, pumping as much again as a good part of what the cycle
+            # pumped so far is a new pressurisation, not a top-up
+            restart = (phases[k - 1].kind == "shut_in"
+                       and phases[k - 1].i1 - phases[k - 1].i0 >= opt.min_phase_samples
+                       and amount(ph) >= opt.restart_fraction * g["amount"] > 0)
+            if not (released or restart):
                 g["pumps"].append(k)
+                g["amount"] += amount(ph)
                 if ps[peak_i] > g["peak"]:
                     g["peak"], g["peak_i"] = float(ps[peak_i]), peak_i
                 continue
         groups.append({"k0": k, "pumps": [k], "p_start": p_start, "peak": float(ps[peak_i]),
-                       "peak_i": peak_i})
+                       "peak_i": peak_i, "amount": amount(ph)})
     need = opt.cycle_fraction * span
 
     def enough(g):
@@ -467,7 +480,12 @@ def _cycles(record, phases, starts, ends, ps, base, pv_volume, opt) -> list[Cycl
         while k1 < len(phases) and phases[k1].i1 <= e:
             k1 += 1
         members_list.append(tuple(phases[k0:max(k1, k0 + 1)]))
-    shapes = [measure(record, m, ps, base, pv_volume, opt) for m in members_list]
+    shapes = []
+    for m in members_list:
+        k_next = by_start.get(m[-1].i1)
+        again = (m[-1].kind == "shut_in" and k_next is not None
+                 and phases[k_next].kind == "pump")
+        shapes.append(measure(record, m, ps, base, pv_volume, opt, repressurised=again))
     kinds = classify(shapes, opt)
     cycles = []
     for c, (members, (kind, reason)) in enumerate(zip(members_list, kinds)):
