@@ -20,7 +20,7 @@ __all__ = ["SegmentOptions"]
 _FRACTIONS = ("pump_on", "pump_off", "return_on", "return_off", "idle_fraction",
               "leg_fraction", "cycle_fraction", "release_fraction", "restart_fraction",
               "bleed_fraction",
-              "fast_release", "unmetered_steepness", "rise_steepness", "rise_linearity",
+              "fast_release", "release_levelling", "unmetered_steepness", "rise_steepness", "rise_linearity",
               "rise_levelling", "rough_fraction",
               "step_fraction", "line_test_volume", "departure_tolerance", "xlot_fall",
               "hold_max_drop", "rate_step_change", "rate_step_stable", "base_dwell_fraction")
@@ -89,6 +89,11 @@ class SegmentOptions:
     acceleration : float
         A fall is a release when it is this many times faster than the decline of the
         shut-in just before it: leak-off only slows down [3].
+    release_levelling : float
+        A fall dies away like leak-off (exponentially, towards the formation's pressure)
+        rather than like flow out through a valve or choke when its rate takes more than
+        this fraction of the time to its tenth to go from half to a tenth [0.55]
+        (exponential 0.70, choke 0.44, valve: abrupt).
     fast_release : float
         A fall that starts at pump stop is a release when it reaches base in less than this
         fraction of the pumping time [0.1].
@@ -178,6 +183,7 @@ class SegmentOptions:
     restart_fraction: float = 0.25
     bleed_fraction: float = 0.6
     acceleration: float = 3.0
+    release_levelling: float = 0.55
     fast_release: float = 0.1
     unmetered_steepness: float = 0.5
     rise_steepness: float = 0.02

@@ -93,21 +93,27 @@ def _remark(record: Record, t0: float, t1: float) -> bool:
 
 
 def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOptions) -> bool:
-    """Whether the fall rate ``f`` over ``[a, b)`` dies away gradually: from the last
-    sample at half its maximum to the first below a tenth takes more than
-    ``rise_levelling`` of the fall (and more than the smoothing windows)."""
+    """Whether the fall rate ``f`` over ``[a, b)`` dies away like leak-off's.
+
+    Leak-off that sped up when the fracture closed decays exponentially towards the
+    formation's pressure: its rate falls from half its maximum to a tenth over 0.70 of the
+    time from the fall's start to that tenth (``ln 5 / ln 10``). Flow out through a choke
+    (``Q ~ sqrt(dp)``) loses its rate linearly, over 0.44 of it; an opened valve empties the
+    well until it is shut or at base and ends abruptly. The fall levels off like leak-off
+    when that fraction exceeds ``release_levelling`` (and the smoothing windows).
+    """
     seg = f[a:b]
     top = float(np.max(seg))
     if top <= 0:
         return True
+    n = t.size
     i50 = a + int(np.flatnonzero(seg >= 0.5 * top)[-1])
     low = np.flatnonzero(f[i50:] < 0.1 * top)
-    e10 = i50 + int(low[0]) if low.size else f.size - 1
-    n = t.size
+    e10 = min(i50 + int(low[0]) if low.size else n - 1, n - 1)
     smooth = opt.smooth_samples + 2 * opt.slope_half
-    allow = max(opt.rise_levelling * float(t[min(e10, n - 1)] - t[a]),
+    allow = max(opt.release_levelling * float(t[e10] - t[a]),
                 float(t[min(i50 + smooth, n - 1)] - t[i50]))
-    return float(t[min(e10, n - 1)] - t[i50]) > allow
+    return float(t[e10] - t[i50]) > allow
 
 
 def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.ndarray,
@@ -118,13 +124,13 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
     rate of the ``3 settle_samples`` before it (pumping samples excluded) and the noise of
     the slope; it runs to the lowest point of the fall that follows. It is a release when it
-    takes away ``bleed_fraction`` of the pressure above base and ends abruptly (an opened
-    valve empties the well until it is shut or at base; leak-off that sped up when the
-    fracture closed and stiffened the system dies away gradually towards the formation's
-    pressure: :func:`_levels_off`), with evidence: a remark; an accelerated decline after a
-    shut-in of at least ``2 settle_samples``; or, right at pump stop, a fall to within a
-    fifth of the pressure above base in less than ``fast_release`` of the pumping time. A
-    fall that dies away gradually is a release only on a remark.
+    takes away ``bleed_fraction`` of the pressure above base, does not die away like
+    leak-off (:func:`_levels_off`: leak-off that sped up when the fracture closed and
+    stiffened the system decays exponentially towards the formation's pressure), and has
+    evidence: a remark; an accelerated decline after a shut-in of at least
+    ``2 settle_samples``; or, right at pump stop, a fall to within a fifth of the pressure
+    above base in less than ``fast_release`` of the pumping time. A fall that dies away
+    like leak-off is a release only on a remark.
     """
     t = record.t
     n = ps.size
@@ -162,6 +168,9 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
         if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
             continue
         ev: list[ReleaseEvidence] = []
+        before = [r for r in pump_runs if r[1] <= a]
+        tp = float(t[before[-1][1] - 1] - t[before[-1][0]]) if before else 0.0
+        fast = tp > 0 and float(t[b - 1] - t[a]) < opt.fast_release * tp
         if _levels_off(t, f, a, b, opt):
             # leak-off that sped up (the fracture closing stiffens the system) decays
             # towards the formation's pressure; an opened valve empties the well until it
@@ -173,7 +182,6 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
             continue
         if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
             ev.append(ReleaseEvidence.REMARK)
-        before = [r for r in pump_runs if r[1] <= a]
         pe = before[-1][1] if before else 0
         if a - pe >= 2 * opt.settle_samples:
             # accelerated past the decline the shut-in had just before the fall
@@ -182,9 +190,7 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
             if float(np.max(f[a:b])) >= opt.acceleration * ref_a:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         elif before:
-            tp = float(t[before[-1][1] - 1] - t[before[-1][0]])
-            near_base = ps[b - 1] - base <= 0.2 * excess
-            if tp > 0 and near_base and t[b - 1] - t[a] < opt.fast_release * tp:
+            if fast and ps[b - 1] - base <= 0.2 * excess:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         if not ev:
             continue

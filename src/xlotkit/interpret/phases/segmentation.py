@@ -453,6 +453,15 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
             for k in g["pumps"]:
                 out[k] = replace(out[k], kind="idle", evidence=())
         # a failed group that starts pressurised after a cycle is a top-up of that cycle
+    # a well shut in after a cycle's pumping stays shut in until something opens it (a
+    # release) or it is pumped again, even if its pressure falls back to base (a long
+    # falloff into a formation below the well's hydrostatic level)
+    for g in keep:
+        for k in range(g["pumps"][-1] + 1, len(out)):
+            if out[k].kind == "idle":
+                out[k] = replace(out[k], kind="shut_in")
+            elif out[k].kind != "shut_in":
+                break
     result: list[tuple[int, int]] = []
     starts = [g["k0"] for g in keep]
     failed_from_base = [g["k0"] for g in groups if g not in keep
