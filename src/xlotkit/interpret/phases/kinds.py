@@ -313,7 +313,8 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
         flattened = past >= 0.15 and built <= 0.3
         if flattened:
             dep_text += f", gaining {100 * built:.0f} % of the linear trend"
-        xlot = past >= opt.xlot_past_ratio or flattened
+        # a breakdown (the pressure fell while pumping) is never a LOT
+        xlot = past >= opt.xlot_past_ratio or flattened or fall >= opt.xlot_fall
 
     # ------------------------------------------------------------ DFIT shape
     after = members[kmain + 1:]
