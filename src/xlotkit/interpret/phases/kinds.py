@@ -15,7 +15,8 @@ Rules, in order (thresholds: :class:`~xlotkit.interpret.phases.options.SegmentOp
    compare with (a record holding a line test alone calls it a casing test).
 2. ``step_rate``: pumped in at least ``min_rate_steps`` rate steps, each higher than the
    one before, with the pressure stabilised on each (it moves over the step's last third by
-   at most ``rate_step_stable`` of the change into the step), and no breakdown: the
+   at most ``rate_step_stable`` of the change into the step, beyond three standard errors
+   of that movement), and no breakdown: the
    pressure never rose more than ``xlot_fall`` of the gain above the highest stabilised
    level. (An XLOT whose rate was raised in steps after breakdown stays an XLOT.)
 3. ``stimulation``: pumped in at least ``min_rate_steps`` rate levels (steps at least
@@ -136,14 +137,18 @@ def rate_steps(record: Record, pumps: list[Phase], opt: SegmentOptions | None = 
         third = max(3, (b - a) // 3)
         tt, pp = t[b - third:b], p[b - third:b]
         ok = np.isfinite(pp)
-        if ok.sum() >= 3 and np.ptp(tt[ok]) > 0:
-            s = np.polyfit(tt[ok], pp[ok], 1)[0]
-            drift = float(s * (tt[ok][-1] - tt[ok][0]))
-        else:
-            drift = 0.0
+        drift = drift_se = 0.0
+        if ok.sum() >= 4 and np.ptp(tt[ok]) > 0:
+            x, y = tt[ok] - tt[ok].mean(), pp[ok]
+            s = float(np.dot(x, y - y.mean()) / np.dot(x, x))
+            res = y - y.mean() - s * x
+            span = float(tt[ok][-1] - tt[ok][0])
+            drift = s * span
+            # the drift's own noise: the standard error of the fitted slope times the span
+            drift_se = float(np.sqrt(np.dot(res, res) / (x.size - 2) / np.dot(x, x))) * span
         level = float(np.nanmedian(pp))
         change = abs(level - prev_p)
-        stable = abs(drift) <= opt.rate_step_stable * max(change, 0.1 * gain)
+        stable = abs(drift) <= opt.rate_step_stable * max(change, 0.1 * gain) + 3.0 * drift_se
         out.append(RateStep(int(idx[a]), int(idx[b - 1]) + 1, float(np.median(q[a:b])),
                             level, drift, bool(stable)))
         prev_p = level

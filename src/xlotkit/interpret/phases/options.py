@@ -158,7 +158,9 @@ class SegmentOptions:
         [0.05].
     rate_step_stable : float
         A step is stabilised when the pressure moves over its last third by at most this
-        fraction of the pressure change into it (or of the cycle's gain) [0.25].
+        fraction of the pressure change into it (or a tenth of the cycle's gain), beyond
+        three standard errors of that movement [0.1]: relaxing exponentially, a step has
+        then lasted about three time constants (95 % of the way to its steady level).
     base_dwell_fraction : float
         A record that starts pressurised has as base the lowest level where it dwells at
         least this fraction of its length [0.05].
@@ -204,7 +206,7 @@ class SegmentOptions:
     dfit_falloff_ratio: float = 5.0
     min_rate_steps: int = 4
     rate_step_change: float = 0.05
-    rate_step_stable: float = 0.25
+    rate_step_stable: float = 0.1
     base_dwell_fraction: float = 0.05
 
     def __post_init__(self) -> None:

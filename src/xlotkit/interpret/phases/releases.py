@@ -92,7 +92,8 @@ def _remark(record: Record, t0: float, t1: float) -> bool:
                for e in record.events)
 
 
-def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOptions) -> bool:
+def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOptions,
+                h: int) -> bool:
     """Whether the fall rate ``f`` over ``[a, b)`` dies away like leak-off's.
 
     Leak-off that sped up when the fracture closed decays exponentially towards the
@@ -110,7 +111,7 @@ def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOption
     i50 = a + int(np.flatnonzero(seg >= 0.5 * top)[-1])
     low = np.flatnonzero(f[i50:] < 0.1 * top)
     e10 = min(i50 + int(low[0]) if low.size else n - 1, n - 1)
-    smooth = opt.smooth_samples + 2 * opt.slope_half
+    smooth = opt.smooth_samples + 2 * h
     allow = max(opt.release_levelling * float(t[e10] - t[a]),
                 float(t[min(i50 + smooth, n - 1)] - t[i50]))
     return float(t[e10] - t[i50]) > allow
@@ -122,36 +123,55 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     """Releases of pressure while the pump is off (module docstring).
 
     A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
-    rate of the ``3 settle_samples`` before it (pumping samples excluded) and the noise of
-    the slope; it runs to the lowest point of the fall that follows. It is a release when it
+    rate of the ``3 settle_samples`` before it (pumping samples excluded) and
+    ``noise_multiple`` times the noise of the slope (read over ``±slope_half`` samples, and
+    again over ``±settle_samples / 2`` for slow, controlled bleeds); it runs to the lowest point of the fall that follows. It is a release when it
     takes away ``bleed_fraction`` of the pressure above base, does not die away like
     leak-off (:func:`_levels_off`: leak-off that sped up when the fracture closed and
     stiffened the system decays exponentially towards the formation's pressure), and has
-    evidence: a remark; an accelerated decline after a shut-in of at least
-    ``2 settle_samples``; or, right at pump stop, a fall to within a fifth of the pressure
-    above base in less than ``fast_release`` of the pumping time. A fall that dies away
+    evidence: a remark; a decline ``acceleration`` times faster than the shut-in's before
+    it; or, right at pump stop, a fall to within a fifth of the pressure above base in less
+    than ``fast_release`` of the pumping time. A fall that dies away
     like leak-off is a release only on a remark.
     """
     t = record.t
+    pump_runs = runs(pump)
+    out = _scan(record, ps, -dpdt, opt.slope_half, pump, pump_runs, base, noise, opt,
+                pressure_only, refine=False)
+    # a slow, controlled bleed hides in the noise of the short slope on a quantised gauge:
+    # the same search on the slope over settle_samples, whose noise is smaller
+    hl = max(opt.slope_half, opt.settle_samples // 2)
+    if hl > opt.slope_half:
+        for r in _scan(record, ps, -slope(t, ps, hl), hl, pump, pump_runs, base, noise, opt,
+                       pressure_only, refine=True):
+            if not any(r.a < o.b and o.a < r.b for o in out):
+                out.append(r)
+        out.sort(key=lambda r: r.a)
+    return out
+
+
+def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
+          pressure_only: bool, *, refine: bool) -> list[Release]:
+    """The release search of :func:`find_releases` on the fall rate ``f`` (a slope over
+    ``±h`` samples). ``refine``: the start of a release is where the pressure has left its
+    level by a twentieth of the fall (a long slope blurs it)."""
+    import pandas as pd
+
+    t = record.t
     n = ps.size
     free = ~pump
-    f = -dpdt
-    h = opt.slope_half
     i = np.arange(n)
     span_t = t[np.clip(i + h, 0, n - 1)] - t[np.clip(i - h, 0, n - 1)]
     with np.errstate(divide="ignore", invalid="ignore"):
         floor = np.where(span_t > 0, opt.noise_multiple * noise * np.sqrt(2.0) / span_t, np.inf)
-    import pandas as pd
-
     w = 3 * opt.settle_samples
     g = 2 * h + 1
     quiet = np.where(free, f, np.nan)
     ref = pd.Series(quiet).rolling(w, min_periods=max(3, w // 4)).median().to_numpy()
     ref = np.concatenate([np.full(g, np.nan), ref[:-g]]) if n > g else np.full(n, np.nan)
     ref = np.where(np.isfinite(ref), np.maximum(ref, 0.0), 0.0)
-    cand = free & (f > floor) & (f >= opt.acceleration * np.maximum(ref, floor))
+    cand = free & (f > floor) & (f >= opt.acceleration * ref)
     out: list[Release] = []
-    pump_runs = runs(pump)
     for a, b in runs(bridge(cand, opt.gap_samples) & free):
         fmax = float(np.max(f[a:b]))
         while b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):
@@ -164,6 +184,11 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
         b = a + int(np.argmin(ps[a:b])) + 1
         if b - a < 2:
             continue
+        if refine:
+            steep = a + int(np.argmax(f[a:b]))
+            drop = float(ps[a] - ps[b - 1])
+            left = np.flatnonzero(ps[a:steep + 1] >= ps[a] - 0.05 * drop)
+            a = a + int(left[-1]) if left.size else a
         excess = float(ps[a] - base)
         if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
             continue
@@ -171,7 +196,7 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
         before = [r for r in pump_runs if r[1] <= a]
         tp = float(t[before[-1][1] - 1] - t[before[-1][0]]) if before else 0.0
         fast = tp > 0 and float(t[b - 1] - t[a]) < opt.fast_release * tp
-        if _levels_off(t, f, a, b, opt):
+        if _levels_off(t, f, a, b, opt, h):
             # leak-off that sped up (the fracture closing stiffens the system) decays
             # towards the formation's pressure; an opened valve empties the well until it
             # is shut or at base: its fall ends abruptly
@@ -183,11 +208,13 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
         if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
             ev.append(ReleaseEvidence.REMARK)
         pe = before[-1][1] if before else 0
-        if a - pe >= 2 * opt.settle_samples:
-            # accelerated past the decline the shut-in had just before the fall
-            ref_a = float(np.median(f[max(pe + opt.settle_samples, a - w): a - g // 2]))
-            ref_a = max(ref_a, float(floor[a]))
-            if float(np.max(f[a:b])) >= opt.acceleration * ref_a:
+        s0 = min(opt.settle_samples, (a - pe) // 2)
+        if a - g // 2 - max(pe + s0, a - w) >= 3:
+            # accelerated past the decline the shut-in had just before the fall (its first
+            # settle_samples, or half of a shorter shut-in, skipped: the pump-stop step)
+            ref_a = max(float(np.median(f[max(pe + s0, a - w): a - g // 2])), 0.0)
+            top = float(np.max(f[a:b]))
+            if top > float(floor[a]) and top >= opt.acceleration * ref_a:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         elif before:
             if fast and ps[b - 1] - base <= 0.2 * excess:

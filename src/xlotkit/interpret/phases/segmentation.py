@@ -203,7 +203,8 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
        the current cycle), and the cycle builds a
        ``cycle_fraction`` of the span above both base and its starting level. Without a rate,
        the cycle must also hold its pressure after pumping (a release at once is
-       circulation). Pumping that opens no cycle from base is a flush: ``idle``.
+       circulation). Pumping that opens no cycle from base is a flush: ``idle``. A cycle
+       runs to the next one, or until the well has stood idle as long as it was pumped.
     6. Each cycle is classified (:mod:`~xlotkit.interpret.phases.kinds`).
 
     Parameters
@@ -447,12 +448,16 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
             shut = kl + 1 < len(phases) and phases[kl + 1].kind == "shut_in"
             ok = shut and min(held, phases[kl + 1].i1 - phases[kl + 1].i0) \
                 >= opt.min_phase_samples
+        # a failed group that starts pressurised right after a cycle (no idle between) is
+        # a top-up of that cycle; any other is a flush or circulation: not a test
+        idle_between = bool(keep) and any(
+            ph.kind == "idle" for ph in phases[keep[-1]["pumps"][-1] + 1: g["k0"]])
+        g["top_up"] = not ok and bool(keep) and g["p_start"] - base >= band and not idle_between
         if ok:
             keep.append(g)
-        elif g["p_start"] - base < band or not keep:
+        elif not g["top_up"]:
             for k in g["pumps"]:
                 out[k] = replace(out[k], kind="idle", evidence=())
-        # a failed group that starts pressurised after a cycle is a top-up of that cycle
     # a well shut in after a cycle's pumping stays shut in until something opens it (a
     # release) or it is pumped again, even if its pressure falls back to base (a long
     # falloff into a formation below the well's hydrostatic level)
@@ -464,12 +469,18 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
                 break
     result: list[tuple[int, int]] = []
     starts = [g["k0"] for g in keep]
-    failed_from_base = [g["k0"] for g in groups if g not in keep
-                        and (g["p_start"] - base < band or not keep)]
+    failed_from_base = [g["k0"] for g in groups if g not in keep and not g["top_up"]]
     bounds = sorted(set(starts) | set(failed_from_base))
-    for k0 in starts:
+    for g in keep:
+        k0 = g["k0"]
         later = [b for b in bounds if b > k0]
         k1 = later[0] if later else len(out)
+        # the cycle is over once the well has stood idle for as long as it was pumped
+        pumping = sum(out[k].duration for k in g["pumps"])
+        for k in range(g["pumps"][-1] + 1, k1):
+            if out[k].kind == "idle" and out[k].duration >= pumping:
+                k1 = k
+                break
         while k1 - 1 > k0 and out[k1 - 1].kind == "idle":
             k1 -= 1
         result.append((k0, k1))

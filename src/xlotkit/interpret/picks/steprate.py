@@ -15,7 +15,9 @@ Method
 2. Every split of the ``n >= 4`` points into a lower line (the first ``k``) and an upper line
    (the rest), at least two points on each, is fitted by least squares. The split with the
    smallest total squared residual wins when the upper line is flatter than the lower; the
-   FEP is the pressure where the two lines intersect.
+   FEP is the pressure where the two lines intersect. There is a break only if the two
+   lines fit significantly better than one straight line at the stated level (chi-square
+   with the points' errors, or an F test when the points scatter more than their errors).
 3. Interval at the stated level (:data:`xlotkit.interpret.picks.intervals.LEVEL`,
    :mod:`~xlotkit.interpret.picks.intervals`): the statistical part from the lines'
    covariance (first-order propagation to the intersection, :func:`~xlotkit.interpret.
@@ -32,6 +34,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.stats import chi2
+from scipy.stats import f as f_dist
 
 from xlotkit.interpret.phases import Cycle, RateStep, rate_steps
 from xlotkit.interpret.picks.intervals import LEVEL, budget
@@ -109,6 +113,39 @@ def fep_two_lines(q: Sequence[float], p: Sequence[float], sigma: Sequence[float]
     return k, lo, hi, float(xq), float(yp), float(ye)
 
 
+def _wls(x: np.ndarray, Y: np.ndarray, w2: np.ndarray):
+    """Weighted least-squares lines through ``(x, Y[b])`` for every row ``b`` of ``Y``
+    (weights ``w2 = 1/sigma^2``): slopes, intercepts and weighted squared residuals."""
+    S, Sx, Sxx = w2.sum(), (w2 * x).sum(), (w2 * x * x).sum()
+    Sy = Y @ w2
+    Sxy = Y @ (w2 * x)
+    det = S * Sxx - Sx * Sx
+    slope = (S * Sxy - Sx * Sy) / det
+    icpt = (Sxx * Sy - Sx * Sxy) / det
+    r = Y - (slope[:, None] * x[None, :] + icpt[:, None])
+    return slope, icpt, (r * r) @ w2
+
+
+def _batch_fep(q: np.ndarray, P: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """:func:`fep_two_lines` for every row of ``P`` at once: the FEP [Pa] per row (NaN where
+    no split gives a flatter upper line meeting the lower one between the points)."""
+    n = q.size
+    w2 = 1.0 / np.maximum(sigma, 1e-300) ** 2
+    best = np.full(P.shape[0], np.inf)
+    out = np.full(P.shape[0], np.nan)
+    for k in range(2, n - 1):
+        s1, c1, e1 = _wls(q[:k], P[:, :k], w2[:k])
+        s2, c2, e2 = _wls(q[k:], P[:, k:], w2[k:])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xq = (c2 - c1) / (s1 - s2)
+        ok = (s1 > 0) & (s2 < s1) & np.isfinite(xq) & (xq >= q[0]) & (xq <= q[-1])
+        total = e1 + e2
+        take = ok & (total < best)
+        best[take] = total[take]
+        out[take] = (s1 * xq + c1)[take]
+    return out
+
+
 def _point_errors(record: Record, steps: Sequence[RateStep], noise: float) -> np.ndarray:
     """One-sigma error of each stabilised pressure [Pa] (module docstring, step 3)."""
     out = []
@@ -182,13 +219,25 @@ def pick_fep(record: Record, cycle: Cycle, *, window: tuple[float, float] | None
         fit2 = fep_two_lines(q, p, sig_eff)
         if fit2 is not None:
             k, lo, hi, qx, value, se = fit2
+    # is there a break at all? two lines must fit significantly better than one
+    chi_one = _line(q, p, 1.0 / sig_eff)[1]
+    chi_two = (_line(q[:k], p[:k], 1.0 / sig_eff[:k])[1]
+               + _line(q[k:], p[k:], 1.0 / sig_eff[k:])[1])
+    gain = chi_one - chi_two
+    if dof > 0 and scatter > float(np.median(sig)):
+        stat, crit = gain / 2.0 / max(chi_two / dof, 1e-300), float(f_dist.ppf(LEVEL, 2, dof))
+    else:
+        stat, crit = gain, float(chi2.ppf(LEVEL, 2))
+    if stat < crit:
+        return Pick.not_found(name, method, "no break in the stabilised p-q line: two lines "
+                              f"fit no better than one (test statistic {stat:.3g} below "
+                              f"{crit:.3g} at the {100 * LEVEL:.0f} % level){msg_out}",
+                              details={"steps": [(float(s.rate), float(s.pressure))
+                                                 for s in steps]})
     rng = np.random.default_rng(_SEED)
-    boot = []
-    for _ in range(N_BOOT):
-        r = fep_two_lines(q, p + rng.normal(0.0, sig_eff), sig_eff)
-        if r is not None:
-            boot.append(r[4])
-    boot_arr = np.asarray(boot)
+    draws = p[None, :] + rng.normal(0.0, 1.0, (N_BOOT, q.size)) * sig_eff[None, :]
+    boot_arr = _batch_fep(q, draws, sig_eff)
+    boot_arr = boot_arr[np.isfinite(boot_arr)]
     extra = []
     found_frac = boot_arr.size / N_BOOT
     if boot_arr.size >= 20:
