@@ -36,6 +36,7 @@ CASES = (
 
 def main(argv: list[str]) -> int:
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     from xlotkit.atomic import save_figure
     from xlotkit.interpret.io import read_log, read_logs
@@ -62,17 +63,18 @@ def main(argv: list[str]) -> int:
         lo = min(c.peak_pressure for c in gseg.cycles) / 1e5
         ax.set_ylim(bottom=min(ax.get_ylim()[0], lo - 80.0))
         y = ax.get_ylim()[0] + 0.03 * (ax.get_ylim()[1] - ax.get_ylim()[0])
-        first = True
         for c in cseg.cycles:
             for ph in c.phases:
                 if ph.kind != "pump" or c.kind == "line_test":
                     continue
                 a = crec.time_at(ph.t_start) - timedelta(seconds=off)
                 b = crec.time_at(ph.t_end) - timedelta(seconds=off)
-                ax.plot([a, b], [y, y], color="tab:red", lw=5, solid_capstyle="butt",
-                        label="metered pumping (cementing unit)" if first else None)
-                first = False
-        ax.legend(loc="lower right", fontsize=7)
+                ax.plot([a, b], [y, y], color="tab:red", lw=5, solid_capstyle="butt")
+        # the record plot's legend (phases) below the axes, with the metered pumping added
+        handles = list(ax.get_legend().legend_handles) + [
+            Line2D([], [], color="tab:red", lw=5, label="metered pumping (cementing unit)")]
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12),
+                  fontsize=7, ncol=min(len(handles), 7), framealpha=0.85)
         ax.set_title(title + " — phases from the pressure alone", fontsize=10)
         save_figure(fig, OUT / f"{tag}.png", dpi=110)
         for cc in [c for c in cseg.cycles if c.kind == "xlot"]:
@@ -91,7 +93,6 @@ def main(argv: list[str]) -> int:
         print(f"{gauge}: {cyc}")
         print("  " + gseg.notes[0])
     (OUT / "gauge_vs_metered.md").write_text("\n".join(rows) + "\n")
-    print("\n".join(rows))
     return 0
 
 

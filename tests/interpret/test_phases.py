@@ -390,14 +390,14 @@ def test_ams01_gauge_alone_cycles_a_person_sees(ams):
     # test to 182 bar (16.19 h); the three XLOT cycles at 375, 328, 334 bar. XLOT 2: the
     # five XLOT cycles only -- the pulsing pump-ins at ~+20 bar (3.7-4.7 h, 15.2 h,
     # 15.5-16.9 h) are circulation: released at once, no shut-in.
-    rec1, seg1 = ams["dh1"]
+    _, seg1 = ams["dh1"]
     peaks1 = [round(c.peak_pressure / BAR) for c in seg1.cycles]
     assert 258 in peaks1
     staged = seg1.cycles[peaks1.index(258)]
     assert staged.kind == "casing_test" and abs(staged.t_start / 3600 - 5.67) < 0.02
     assert sum(ph.kind == "pump" for ph in staged.phases) == 2  # the two stages, one cycle
     assert [c.kind for c in seg1.cycles if c.peak_pressure / BAR > 320] == ["xlot"] * 3
-    rec2, seg2 = ams["dh2"]
+    _, seg2 = ams["dh2"]
     assert [c.kind for c in seg2.cycles] == ["xlot"] * 5
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from xlotkit.interpret.phases import ReleaseEvidence, segment
 from xlotkit.record import Event, Record

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from phase_fixtures import (
     BAR,
     LPM,
@@ -21,6 +20,7 @@ from phase_fixtures import (
     stimulation_arrays,
     to_record,
 )
+
 from xlotkit import Record
 from xlotkit.interpret.phases import CYCLE_KINDS, rate_steps, segment
 from xlotkit.interpret.picks.core import pick_record

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from phase_fixtures import (
     BAR,
     PRESSURE_UNITS,
@@ -32,6 +31,7 @@ from phase_fixtures import (
     write_csv,
 )
 from test_phases import two_cycle_xlot
+
 from xlotkit import Record
 from xlotkit.interpret.io import read_log
 from xlotkit.interpret.phases import segment
@@ -144,9 +144,7 @@ def test_scaled_record_gives_identical_phases(kind, rate, fp, fq, ft, seed):
     ref = segment(_scaled(arrays, 1.0, 1.0, 1.0, rate))
     got = segment(_scaled(arrays, fp, fq, ft, rate))
     assert _signature(got) == _signature(ref)
-    if rate or kind != "xlot":
-        # (the pressure-only XLOT fixture finds the same cycles, checked in test_phases.py)
-        assert [c.kind for c in ref.cycles] == KINDS[kind]
+    assert [c.kind for c in ref.cycles] == KINDS[kind]
 
 
 @pytest.mark.parametrize("fp,fq,ft", [(0.03, 1.0, 1.0), (1.0, 0.02, 1.0), (1.0, 1.0, 0.2)])

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from phase_fixtures import BAR, LPM, step_rate_arrays, to_record
+
 from xlotkit import Record
 from xlotkit.interpret.phases import segment
 from xlotkit.interpret.picks.intervals import LEVEL
@@ -22,7 +22,7 @@ def test_two_lines_meet_where_the_construction_put_them():
     p_res, J, qc = 200e5, 8.0 * LPM / BAR, 170 * LPM  # J: 8 l/min per bar, in m3/s per Pa
     fep = p_res + qc / J
     p = np.where(q <= qc, p_res + q / J, fep + 0.02 * BAR / LPM * (q - qc))
-    k, lo, hi, q_fep, p_fep, se = fep_two_lines(q, p)
+    k, lo, _hi, q_fep, p_fep, _se = fep_two_lines(q, p)
     # exact data: the split puts the four points below qc on the lower line and the lines
     # meet at the construction's break (floating point only)
     assert k == 4

@@ -376,7 +376,6 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
         if len(s.steps) >= opt.min_rate_steps:
             rates = [st.rate for st in s.steps]
             up = all(b > a for a, b in zip(rates, rates[1:]))
-            top = int(np.argmax(rates))
             # a treatment's stages: levels at least four rate steps apart, climbing to the
             # highest rate and stepping down again
             levels = [rates[0]]

@@ -19,9 +19,8 @@ __all__ = ["SegmentOptions"]
 #: Options that are fractions strictly between 0 and 1.
 _FRACTIONS = ("pump_on", "pump_off", "return_on", "return_off", "idle_fraction",
               "leg_fraction", "cycle_fraction", "release_fraction", "restart_fraction",
-              "bleed_fraction",
-              "fast_release", "release_levelling", "unmetered_steepness", "rise_steepness", "rise_linearity",
-              "rise_levelling", "rough_fraction",
+              "bleed_fraction", "fast_release", "release_levelling", "unmetered_steepness",
+              "rise_steepness", "rise_linearity", "rise_levelling", "rough_fraction",
               "step_fraction", "line_test_volume", "departure_tolerance", "xlot_fall",
               "hold_max_drop", "rate_step_change", "rate_step_stable", "base_dwell_fraction")
 #: Options that are whole numbers of samples (>= 1).

@@ -125,8 +125,8 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
     rate of the ``3 settle_samples`` before it (pumping samples excluded) and
     ``noise_multiple`` times the noise of the slope (read over ``±slope_half`` samples, and
-    again over ``±settle_samples / 2`` for slow, controlled bleeds); it runs to the lowest point of the fall that follows. It is a release when it
-    takes away ``bleed_fraction`` of the pressure above base, does not die away like
+    again over ``±settle_samples / 2`` for slow, controlled bleeds); it runs to the lowest
+    point of the fall that follows. It is a release when it takes away ``bleed_fraction`` of the pressure above base, does not die away like
     leak-off (:func:`_levels_off`: leak-off that sped up when the fracture closed and
     stiffened the system decays exponentially towards the formation's pressure), and has
     evidence: a remark; a decline ``acceleration`` times faster than the shut-in's before

@@ -281,7 +281,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
 
     # ---------------------------------------------------------------- releases
     free = ~pump
-    returns, have_returns = return_flow(record, free, rate_scale, opt)
+    returns, _ = return_flow(record, free, rate_scale, opt)
     bits = np.zeros(n, np.int64)
     bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
     bleed = np.zeros(n, bool)
@@ -293,9 +293,8 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
         a, b = rel.a, rel.b
         for ev in rel.evidence:
             bits[a:b] |= _BITS[ev]
-        if np.mean(returns[a:b]) >= 0.5:
-            flowback[a:b] = True
-        elif not used_rate and _controlled(t, ps, a, b, pump_runs):
+        if np.mean(returns[a:b]) >= 0.5 or (not used_rate
+                                             and _controlled(t, ps, a, b, pump_runs)):
             flowback[a:b] = True
         else:
             bleed[a:b] = True

@@ -187,14 +187,17 @@ def zigzag(y: np.ndarray, threshold: float) -> list[int]:
     return out
 
 
-def step_drops(y: np.ndarray, i0: int, i1: int, size: np.ndarray, *, scales=(1, 2, 4, 8, 16),
+def step_drops(y: np.ndarray, i0: int, i1: int, size: np.ndarray, *, scales=(1, 2, 4, 8),
                contrast: float = 3.0) -> list[tuple[int, int]]:
     """Sudden falls of ``y`` inside ``[i0, i1)``: ``(start, end)`` sample pairs.
 
     A fall over ``k`` samples (one of ``scales``) is sudden when it is at least ``size`` at
     its start and ``contrast`` times the fall over the ``k`` samples before it and over the
     ``k`` samples after it (a rise counts as no fall): a step, not a stretch of a smooth
-    decline however steep. The smallest scale that sees a step wins; overlapping
+    decline however steep. The scales stop at 8 samples: a pump-stop drop (friction and
+    near-wellbore losses vanishing) takes a few samples, while an exponential decay with a
+    time constant of ``tau`` samples loses only ``exp(k / tau)`` times as much over ``k``
+    samples as over the next ``k`` (below 3 for ``k <= tau``). The smallest scale that sees a step wins; overlapping
     detections are merged into one.
     """
     found: list[tuple[int, int]] = []
