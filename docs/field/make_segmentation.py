@@ -6,7 +6,7 @@ Run from the repository root with the shared data beside it::
 
 (``DATA_FOLDER`` defaults to ``../shared/data/field/AMS-01`` beside the repository.)
 
-It segments each AMS-01 downhole-gauge file alone (pressure only, as ``xlotkit phases FILE``
+It segments each AMS-01 downhole-gauge file alone (pressure only, as ``xlotkit inspect FILE``
 does), plots the XLOT part of each with its phases and cycles, marks on the same clock when
 the cementing unit's metered pump ran (the independent record of the pumping), and writes the
 comparison table to ``docs/field/segmentation/gauge_vs_metered.md``.
