@@ -7,11 +7,14 @@ tensile strength ``T0 = FBP - Pr`` and the trend of the pressurisation stiffness
 
 What is picked where
 --------------------
-* Only ``lot`` and ``xlot`` cycles get pressure picks. Line and casing tests only get their
-  pressurisation stiffness (a useful check of the well compliance).
-* The first test cycle: ``LOP``; ``FBP`` when it is an ``xlot`` (the pick itself reports "not
-  found" if the formation did not break down). Later test cycles: ``Pr`` (reopening).
-* ``xlot`` cycles: ``FPP``. Every test cycle: ``ISIP``.
+* Only test cycles (:data:`TEST_KINDS`: ``lot``, ``xlot``, ``dfit``, ``step_rate``,
+  ``stimulation``) get pressure picks. Line and casing tests only get their pressurisation
+  stiffness (a useful check of the well compliance).
+* The first test cycle: ``LOP``; ``FBP`` when it was pumped into breakdown
+  (:data:`PROPAGATION_KINDS`; the pick itself reports "not found" if the formation did not
+  break down). Later test cycles: ``Pr`` (reopening).
+* :data:`PROPAGATION_KINDS`: ``FPP``. ``step_rate``: ``FEP``, the fracture-extension
+  pressure (:mod:`~xlotkit.interpret.picks.steprate`). Every test cycle: ``ISIP``.
 * Fracture closure (``FCP``): every shut-in method of
   :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a ``shut_in``
   phase, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`) when it has a
