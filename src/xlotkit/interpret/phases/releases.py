@@ -137,24 +137,53 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     t = record.t
     pump_runs = runs(pump)
     out = _scan(record, ps, -dpdt, opt.slope_half, pump, pump_runs, base, noise, opt,
-                pressure_only, refine=False)
+                pressure_only)
     # a slow, controlled bleed hides in the noise of the short slope on a quantised gauge:
     # the same search on the slope over settle_samples, whose noise is smaller
     hl = max(opt.slope_half, opt.settle_samples // 2)
     if hl > opt.slope_half:
         for r in _scan(record, ps, -slope(t, ps, hl), hl, pump, pump_runs, base, noise, opt,
-                       pressure_only, refine=True):
+                       pressure_only):
             if not any(r.a < o.b and o.a < r.b for o in out):
                 out.append(r)
         out.sort(key=lambda r: r.a)
     return out
 
 
+def _onset(t, ps, f, pump, a: int, b: int, c0: int, h: int, noise: float,
+           opt: SegmentOptions) -> int:
+    """First sample of the release found over ``[a, b)`` from a candidate starting at
+    ``c0``: the last sample on the decline before it.
+
+    The slope's window blurs the onset by up to ``h`` samples, and on a slowly declining
+    shut-in the highest point near it is the earliest one; so the decline of the
+    ``settle_samples`` before the candidate (outside the window) is fitted with a line and
+    the release starts where the pressure leaves it by ``noise_multiple`` noise and 0.2 %
+    of the fall. Without such a stretch: where the pressure has lost a twentieth of
+    the fall.
+    """
+    steep = a + int(np.argmax(f[a:b]))
+    drop = float(ps[a] - ps[b - 1])
+    hi = max(c0 - h, 0)
+    lo = max(hi - opt.settle_samples, 0)
+    pumped = np.flatnonzero(pump[lo:hi])
+    if pumped.size:
+        lo += int(pumped[-1]) + 1
+    if hi - lo >= 3 and np.ptp(t[lo:hi]) > 0:
+        s, c = np.polyfit(t[lo:hi], ps[lo:hi], 1)
+        i0 = max(lo, min(hi, a))
+        dev = (c + s * t[i0:steep + 1]) - ps[i0:steep + 1]
+        over = np.flatnonzero(dev > max(opt.noise_multiple * noise, 0.002 * drop))
+        if over.size:
+            return max(i0 + int(over[0]) - 1, lo)
+    left = np.flatnonzero(ps[a:steep + 1] >= ps[a] - 0.05 * drop)
+    return a + int(left[-1]) if left.size else a
+
+
 def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
-          pressure_only: bool, *, refine: bool) -> list[Release]:
+          pressure_only: bool) -> list[Release]:
     """The release search of :func:`find_releases` on the fall rate ``f`` (a slope over
-    ``±h`` samples). ``refine``: the start of a release is where the pressure has left its
-    level by a twentieth of the fall (a long slope blurs it)."""
+    ``±h`` samples); the start of each release from :func:`_onset`."""
     import pandas as pd
 
     t = record.t
@@ -173,6 +202,7 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
     cand = free & (f > floor) & (f >= opt.acceleration * ref)
     out: list[Release] = []
     for a, b in runs(bridge(cand, opt.gap_samples) & free):
+        c0 = a
         fmax = float(np.max(f[a:b]))
         while b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):
             b += 1
@@ -184,11 +214,7 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
         b = a + int(np.argmin(ps[a:b])) + 1
         if b - a < 2:
             continue
-        if refine:
-            steep = a + int(np.argmax(f[a:b]))
-            drop = float(ps[a] - ps[b - 1])
-            left = np.flatnonzero(ps[a:steep + 1] >= ps[a] - 0.05 * drop)
-            a = a + int(left[-1]) if left.size else a
+        a = _onset(t, ps, f, pump, a, b, c0, h, noise, opt)
         excess = float(ps[a] - base)
         if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
             continue

@@ -289,6 +289,16 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     releases = find_releases(record, ps, dpdt, pump, base, noise, opt,
                              pressure_only=not used_rate)
     pump_runs = runs(pump)
+    # a return volume read through a slope window starts a return run up to half that window
+    # before the fluid moves; where the pressure's own release starts within that reach,
+    # the returns start with it (a late shut-in end would put the valve opening into it)
+    for a_r, b_r in runs(returns):
+        later = [rel.a for rel in releases if a_r < rel.a < b_r]
+        if later and min(later) - a_r <= opt.settle_samples:
+            returns[a_r:min(later)] = False
+    flowback = returns.copy()
+    bits[:] = 0
+    bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
     for rel in releases:
         a, b = rel.a, rel.b
         for ev in rel.evidence:
