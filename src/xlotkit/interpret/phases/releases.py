@@ -48,8 +48,8 @@ def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
     """Samples where fluid comes back, and whether the record logs returns at all.
 
     From the return rate (hysteresis at ``return_on``/``return_off`` of the pump rate
-    scale, or of the return rate's own scale when no pump rate is logged), a growing return
-    volume, or a pumped-volume totaliser that runs back while the pump is off (one
+    scale, or of the return rate's own scale when no pump rate is logged), else a growing
+    return volume, or a pumped-volume totaliser that runs back while the pump is off (one
     sample's fall larger than twice what the pump moves in one sample at its rate scale is a
     totaliser reset). Returns shorter than ``2 min_phase_samples`` are a valve cycled, not a
     flowback.
@@ -68,7 +68,9 @@ def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
         if scale and scale > 0:
             returns |= hysteresis(rq, opt.return_on * scale, opt.return_off * scale)
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0]) if n > 1 else 1.0)
-    if record.return_volume is not None:
+    if record.return_volume is not None and record.return_rate is None:
+        # (a logged return rate is the better record: a volume read through a slope window
+        # starts a return run half that window early)
         have = True
         cv = cum_positive(record.return_volume)
         if not scale:
@@ -202,6 +204,8 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
     cand = free & (f > floor) & (f >= opt.acceleration * ref)
     out: list[Release] = []
     for a, b in runs(bridge(cand, opt.gap_samples) & free):
+        if out and a < out[-1].b:
+            continue  # a second candidate inside the release just found
         c0 = a
         fmax = float(np.max(f[a:b]))
         while b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):

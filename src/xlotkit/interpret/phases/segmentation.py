@@ -291,8 +291,8 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     pump_runs = runs(pump)
     # a return volume read through a slope window starts a return run up to half that window
     # before the fluid moves; where the pressure's own release starts within that reach,
-    # the returns start with it (a late shut-in end would put the valve opening into it)
-    for a_r, b_r in runs(returns):
+    # the returns start with it (a metered return rate is taken as it is)
+    for a_r, b_r in (runs(returns) if record.return_rate is None else []):
         later = [rel.a for rel in releases if a_r < rel.a < b_r]
         if later and min(later) - a_r <= opt.settle_samples:
             returns[a_r:min(later)] = False
