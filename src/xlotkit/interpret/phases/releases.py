@@ -28,7 +28,7 @@ from xlotkit.interpret.phases.signal import (
 from xlotkit.interpret.phases.types import ReleaseEvidence
 from xlotkit.record import Record
 
-__all__ = ["Release", "find_releases", "return_flow"]
+__all__ = ["Release", "departure", "find_releases", "return_flow"]
 
 _RELEASE_WORDS = ("bleed", "bled", "flow back", "flowback", "flow-back", "open", "release",
                   "vent", "choke")
@@ -150,6 +150,27 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
                 out.append(r)
         out.sort(key=lambda r: r.a)
     return out
+
+
+def departure(t, ps, pump, i: int, h: int, noise: float, drop: float,
+              opt: SegmentOptions) -> int | None:
+    """Last sample on the decline before a fall seen at sample ``i``, or None.
+
+    The decline over the ``settle_samples`` before ``i - h`` (no pumping) is fitted with a
+    line; the fall starts where the pressure leaves it by ``noise_multiple`` noise and 0.2 %
+    of the fall ``drop``, searched from ``i - h - settle_samples`` on."""
+    hi = max(i - h, 0)
+    lo = max(hi - opt.settle_samples, 0)
+    pumped = np.flatnonzero(pump[lo:hi])
+    if pumped.size:
+        lo += int(pumped[-1]) + 1
+    if hi - lo < 3 or np.ptp(t[lo:hi]) <= 0:
+        return None
+    s, c = np.polyfit(t[lo:hi], ps[lo:hi], 1)
+    end = min(i + h + 1, ps.size)
+    dev = (c + s * t[hi:end]) - ps[hi:end]
+    over = np.flatnonzero(dev > max(opt.noise_multiple * noise, 0.002 * drop))
+    return max(hi + int(over[0]) - 1, lo) if over.size else None
 
 
 def _onset(t, ps, f, pump, a: int, b: int, c0: int, h: int, noise: float,

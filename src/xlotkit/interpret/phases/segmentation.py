@@ -23,7 +23,7 @@ from xlotkit.interpret.phases.pumping import (
     pressure_rises,
     unmetered_rises,
 )
-from xlotkit.interpret.phases.releases import find_releases, return_flow
+from xlotkit.interpret.phases.releases import departure, find_releases, return_flow
 from xlotkit.interpret.phases.signal import (
     cum_positive,
     cum_rate,
@@ -296,6 +296,13 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
         later = [rel.a for rel in releases if a_r < rel.a < b_r]
         if later and min(later) - a_r <= opt.settle_samples:
             returns[a_r:min(later)] = False
+    # a metered return rate is logged a sample or two after the choke opens: the flowback
+    # starts where the pressure leaves its decline just before the returns
+    for a_r, b_r in runs(returns):
+        drop = float(ps[a_r] - np.min(ps[a_r:b_r]))
+        d = departure(t, ps, pump, a_r, opt.slope_half, noise, drop, opt)
+        if d is not None and a_r - opt.settle_samples <= d < a_r and not pump[d:a_r].any():
+            returns[d:a_r] = True
     flowback = returns.copy()
     bits[:] = 0
     bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
