@@ -201,4 +201,8 @@ def test_pick_core_registry_covers_every_method():
     assert fcp == list(shutin.SHUTIN_METHODS) + list(FLOWBACK_METHODS)
     assert [e.phase for e in core.METHODS if e.pick == "FCP"] == (
         ["shut_in"] * len(shutin.SHUTIN_METHODS) + ["flowback"] * len(FLOWBACK_METHODS))
-    assert sorted(core.PICK_NAMES) == sorted(("LOP", "FBP", "Pr", "FPP", "ISIP"))
+    assert sorted(core.PICK_NAMES) == sorted(("LOP", "FBP", "Pr", "FPP", "ISIP", "FEP"))
+    # the step-rate test's fracture-extension pressure (picks/steprate.py) is one entry
+    from xlotkit.interpret.picks import steprate
+
+    assert [e.run for e in core.METHODS if e.pick == "FEP"] == [steprate.pick_fep_entry]

@@ -375,12 +375,17 @@ def _pick_table(label: str, interp) -> str:
     lines = [label, f"  pressure reference: {rp.record.reference.describe()}"]
     tests = rp.test_cycles
     if not tests:
-        lines.append("  no LOT/XLOT cycle found")
+        lines.append("  no test cycle (LOT, XLOT, DFIT, step-rate test, stimulation) found")
     for c in tests:
         lines.append(f"  cycle {c.index} ({c.kind})  LOP {_fmt_bar(c.get('LOP'))}  "
                      f"FBP {_fmt_bar(c.get('FBP'))}  Pr {_fmt_bar(c.get('Pr'))}  "
                      f"FPP {_fmt_bar(c.get('FPP'))}  ISIP {_fmt_bar(c.get('ISIP'))} bar"
                      + (f"  stiffness {c.stiffness / 1e5:.0f} bar/m3" if c.stiffness else ""))
+        fep = c.get("FEP")
+        if fep is not None:
+            lines.append(f"    FEP (step-rate break): {_fmt_bar(fep)} bar"
+                         + (f" [{fep.low / 1e5:.1f}-{fep.high / 1e5:.1f}]" if fep.found else
+                            f" ({fep.message})"))
         f = c.fcp
         if f.found:
             lv = f"{100 * f.level:.0f} % " if f.level is not None else ""

@@ -1,7 +1,10 @@
-"""Records built by construction for the segmentation tests (pressure [bar], rates [l/min]).
+"""Records for the segmentation tests, with where a person sets the phases and kinds.
 
-Kept out of the test modules so several of them can share the same truth: each builder also
-returns where a person sets the phase boundaries (sample indices).
+Built by construction (pressure [bar], rates [l/min], 1 s samples) or simulated with the
+lumped model and passed through the log writer and reader (:func:`lumped_log`). Kept out of
+the test modules so several of them can share the same truth: each builder also returns
+where a person sets the phase boundaries (sample indices) and the numbers the construction
+put in.
 """
 
 from __future__ import annotations
@@ -11,6 +14,8 @@ from datetime import datetime
 import numpy as np
 
 from xlotkit import Record
+from xlotkit.interpret.io import read_log
+from xlotkit.logfile import write_log
 
 BAR = 1.0e5
 LPM = 1.0e-3 / 60.0
@@ -55,6 +60,110 @@ def dfit_arrays(*, pre_s: int = 1, pump_s: int = 520, falloff_s: int = 5400, q_l
     truth = {"pump": (pre_s, pre_s + pump_s), "shut_in": (pre_s + pump_s, p.size),
              "closure_bar": closure_bar}
     return t, p, q, truth
+
+
+def _approach(levels, durations, p_start, tau_s):
+    """Pressure [bar] relaxing towards ``levels[k]`` for ``durations[k]`` samples each, with
+    time constant ``tau_s`` (a well filling or draining to a new steady state)."""
+    out = []
+    p = p_start
+    for level, n in zip(levels, durations):
+        tt = np.arange(1, n + 1, dtype=float)
+        seg = level + (p - level) * np.exp(-tt / tau_s)
+        out.append(seg)
+        p = seg[-1]
+    return np.concatenate(out)
+
+
+def step_rate_arrays(*, rates_lpm=(40, 80, 120, 160, 200, 260, 320, 380), step_s=300,
+                     pre_s=180, shut_s=1500, p_res_bar=200.0, lpm_per_bar=8.0,
+                     q_c_lpm=170.0, above_bar_per_lpm=0.02, tau_s=40.0, seed=2,
+                     noise_bar=0.1):
+    """A step-rate test on a downhole gauge: rates held ``step_s`` each, then shut in.
+
+    Steady matrix injection below fracture extension (``p = p_res + q / J``,
+    ``J = lpm_per_bar``), a fracture taking any rate above ``q_c_lpm`` at little extra
+    pressure (``above_bar_per_lpm``): the stabilised p-q line breaks at
+    ``FEP = p_res + q_c / J`` (221.25 bar with the defaults). The pressure relaxes to each
+    step's level with time constant ``tau_s`` (well storage over the formation's
+    injectivity), and to the reservoir pressure after shut-in.
+
+    Returns
+    -------
+    t [s], p [bar], q [l/min], truth dict: ``fep_bar``, ``steps`` ((i0, i1) per step),
+    ``pump`` and ``shut_in`` (i0, i1)
+    """
+    rates = np.asarray(rates_lpm, float)
+    fep = p_res_bar + q_c_lpm / lpm_per_bar
+    level = np.where(rates <= q_c_lpm, p_res_bar + rates / lpm_per_bar,
+                     fep + above_bar_per_lpm * (rates - q_c_lpm))
+    p = np.concatenate([np.full(pre_s, p_res_bar),
+                        _approach(level, [step_s] * rates.size, p_res_bar, tau_s),
+                        _approach([p_res_bar], [shut_s], float(level[-1]), 4 * tau_s)])
+    q = np.concatenate([np.zeros(pre_s), np.repeat(rates, step_s), np.zeros(shut_s)])
+    if noise_bar:
+        p = p + np.random.default_rng(seed).normal(0.0, noise_bar, p.size)
+    t = np.arange(p.size, dtype=float)
+    end = pre_s + step_s * rates.size
+    steps = [(pre_s + k * step_s, pre_s + (k + 1) * step_s) for k in range(rates.size)]
+    return t, p, q, {"fep_bar": fep, "steps": steps, "pump": (pre_s, end),
+                     "shut_in": (end, p.size), "q_c_lpm": q_c_lpm}
+
+
+def stimulation_arrays(*, seed=3, noise_bar=0.3):
+    """A stimulation on the treating (surface) pressure: breakdown at a low rate, the rate
+    stepped up to the main stage, stepped down again, then a falloff.
+
+    Rates [m^3/min]: 0.5 for 150 s (pressure rises at 60 bar/min to a 350 bar breakdown),
+    then 2, 3 and 4 for 90 s each, 4 for 600 s (main stage), 3, 2 and 1 for 90 s each (the
+    step-down), then 1800 s shut in. While fracturing, the treating pressure is
+    ``150 + 8 q^2`` bar (extension pressure at surface plus pipe friction), reached with a
+    10 s time constant; after shut-in it falls 40 bar at once (friction and near-wellbore
+    losses) and declines linearly in sqrt(t) to 80 bar.
+
+    Returns
+    -------
+    t [s], p [bar], q [l/min], truth dict: ``pump`` and ``shut_in`` (i0, i1), ``levels``
+    (rate levels [l/min] in order)
+    """
+    pre = 120
+    sched = [(0.5, 150), (2.0, 90), (3.0, 90), (4.0, 690), (3.0, 90), (2.0, 90), (1.0, 90)]
+    p = [np.zeros(pre)]
+    # breakdown stage: linear rise, breakdown at 350 bar after 100 s, then propagation
+    tt = np.arange(1, 151, dtype=float)
+    first = np.where(tt <= 100, 3.5 * tt, 152.0 + 198.0 * np.exp(-(tt - 100) / 8.0))
+    p.append(first)
+    levels = [150.0 + 8.0 * qq ** 2 for qq, _ in sched[1:]]
+    p.append(_approach(levels, [n for _, n in sched[1:]], float(first[-1]), 10.0))
+    isip = 150.0 - 40.0 + 8.0  # after the 1 m3/min stage: friction and 40 bar gone
+    tf = np.arange(1, 1801, dtype=float)
+    p.append(isip - (isip - 80.0) * np.sqrt(tf / 1800.0))
+    p = np.concatenate(p)
+    q = np.concatenate([np.zeros(pre)] + [np.full(n, 1000.0 * qq) for qq, n in sched]
+                       + [np.zeros(1800)])
+    if noise_bar:
+        p = p + np.random.default_rng(seed).normal(0.0, noise_bar, p.size)
+    end = pre + sum(n for _, n in sched)
+    return (np.arange(p.size, dtype=float), p, q,
+            {"pump": (pre, end), "shut_in": (end, p.size),
+             "levels": [1000.0 * qq for qq, _ in sched]})
+
+
+def lumped_log(tmp_path, name, schedule, **scene):
+    """Simulate ``schedule`` with the lumped model (the standard scene, ``scene`` overrides),
+    write the record with the log writer and read it back as a field log.
+
+    Returns
+    -------
+    (Record read back, EngineResult)
+    """
+    from xlotkit.sim.lumped import simulate_lumped
+    from xlotkit.sim.scene.lumped import standard_lumped_scene
+
+    res = simulate_lumped(standard_lumped_scene(schedule=schedule, **scene))
+    assert res.status == "ok", res.message
+    path = write_log(res.record, tmp_path / f"{name}.csv")
+    return read_log(path), res
 
 
 def to_record(t, p_bar, q_lpm, r_lpm=None) -> Record:

@@ -342,11 +342,11 @@ def test_read_logs_column_choice_needs_to_fit_one_file(truth):
 
 # ---------------------------------------------------------------------------- speed helpers
 def test_running_median_is_scipys_median_filter():
-    # phases._median went from scipy.ndimage to pandas' rolling median for the reader's
+    # the running median went from scipy.ndimage to pandas' rolling median for the reader's
     # speed target (issue 15); the numbers must not change
     from scipy.ndimage import median_filter
 
-    from xlotkit.interpret.phases import _median
+    from xlotkit.interpret.phases.signal import running_median as _median
 
     rng = np.random.default_rng(0)
     for n in (1, 3, 5, 31, 61):

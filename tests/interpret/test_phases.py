@@ -234,12 +234,16 @@ def test_pressure_only_on_a_downhole_gauge_with_hydrostatic_base():
 
 
 def test_options_are_validated():
-    with pytest.raises(InputError, match="pump_rate_off"):
-        SegmentOptions(pump_rate_on=1e-4, pump_rate_off=2e-4)
+    with pytest.raises(InputError, match="pump_off"):
+        SegmentOptions(pump_on=0.01, pump_off=0.02)
     with pytest.raises(InputError, match="bleed_fraction"):
         SegmentOptions(bleed_fraction=1.5)
-    with pytest.raises(InputError, match="idle_band"):
-        SegmentOptions(idle_band=-1.0)
+    with pytest.raises(InputError, match="idle_fraction"):
+        SegmentOptions(idle_fraction=-1.0)
+    with pytest.raises(InputError, match="smooth_samples"):
+        SegmentOptions(smooth_samples=2.5)
+    with pytest.raises(InputError, match="acceleration"):
+        SegmentOptions(acceleration=0.5)
 
 
 def test_empty_and_flat_records():
@@ -376,3 +380,45 @@ def test_ams01_downhole_gauge_alone(ams):
         peaks = {round(c.peak_pressure / BAR) for c in seg.cycles}
         for c in mseg.cycles:
             assert any(abs(p - c.peak_pressure / BAR) <= 2 for p in peaks)
+
+
+@field
+def test_ams01_gauge_alone_cycles_a_person_sees(ams):
+    # Looked at the plots of the gauges alone (docs/field/segmentation.md). XLOT 1: after
+    # running in (0-4.6 h, not a test) a two-stage pressure-up to 258 bar abs (5.67 h),
+    # held ~23 min and bled; a test to 192 then 302 bar (10.46 h); a small two-stage
+    # test to 182 bar (16.19 h); the three XLOT cycles at 375, 328, 334 bar. XLOT 2: the
+    # five XLOT cycles only -- the pulsing pump-ins at ~+20 bar (3.7-4.7 h, 15.2 h,
+    # 15.5-16.9 h) are circulation: released at once, no shut-in.
+    _, seg1 = ams["dh1"]
+    peaks1 = [round(c.peak_pressure / BAR) for c in seg1.cycles]
+    assert 258 in peaks1
+    staged = seg1.cycles[peaks1.index(258)]
+    assert staged.kind == "casing_test" and abs(staged.t_start / 3600 - 5.67) < 0.02
+    assert sum(ph.kind == "pump" for ph in staged.phases) == 2  # the two stages, one cycle
+    assert [c.kind for c in seg1.cycles if c.peak_pressure / BAR > 320] == ["xlot"] * 3
+    _, seg2 = ams["dh2"]
+    assert [c.kind for c in seg2.cycles] == ["xlot"] * 5
+
+
+@field
+def test_ams01_gauge_alone_pump_phases_match_the_metered_ones(ams, io):
+    # The cementing unit's metered rate is an independent record of when the pump ran: on
+    # the gauge alone each XLOT cycle's first pump phase starts at the sustained rise and
+    # stops at the sharp break to the shut-in within 20 s (7 gauge samples; the clock
+    # offset between the two files is itself known to a few seconds) of the metered pump
+    # phase. (Before issue 16 the pump phases of XLOT 2's cycles 3 and 5 ran on through
+    # the shut-in and flowback, 22 and 29 min for 7 min of pumping.)
+    for cu_key, dh_key, merged_key in (("cu1", "dh1", "m1"), ("cu2", "dh2", "m2")):
+        crec, cseg = ams[cu_key]
+        grec, gseg = ams[dh_key]
+        off = ams[merged_key][0].meta["clock_offset_s"]
+        for cc in [c for c in cseg.cycles if c.kind == "xlot"]:
+            pc = cc.phases[0]
+            a = crec.time_at(pc.t_start).timestamp() - off
+            b = crec.time_at(pc.t_end).timestamp() - off
+            gc = min(gseg.cycles, key=lambda c: abs(grec.time_at(c.t_start).timestamp() - a))
+            pg = gc.phases[0]
+            assert pg.kind == "pump"
+            assert abs(grec.time_at(pg.t_start).timestamp() - a) < 20, (cu_key, cc.index)
+            assert abs(grec.time_at(pg.t_end).timestamp() - b) < 20, (cu_key, cc.index)

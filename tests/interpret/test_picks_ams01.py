@@ -6,8 +6,9 @@ hand settings. What a person reading the records sees, and the tests check:
 * XLOT 1 (3 cycles) and XLOT 2 cycles 1-2: each shut-in ends with the bleed valve being
   opened 20-40 s before the flowback/bleed phase starts (a pressure step or a fall at the
   flowback's rate while the rate log still reads zero). A closure there is the valve, not
-  the fracture: no shut-in closure may be picked in that zone, and the break there is
-  reported as rejected at the phase boundary.
+  the fracture: no shut-in closure may be picked in that zone; the segmentation ends the
+  shut-in where the valve opens, and a break still inside it is reported as rejected at the
+  phase boundary.
 * Nothing at a boundary rejects a flowback pick any more (XLOT 1 cycle 1's flowback break
   was thrown out in favour of the valve break).
 * XLOT 2: cycles 3 and 5 close at ~146 bar on both flowback methods; cycle 4 (118 bar, one
@@ -70,11 +71,14 @@ def test_no_shutin_closure_where_the_valve_opens(picks, test, cycles):
             assert 2 <= zone.samples <= 16, (test, i, m, zone)
             if pk.found:
                 assert pk.t < zone.t_start, (test, i, m, pk.t, zone)
+        # The valve's breaks (the methods took them for closure 25-44 s before the old
+        # phase start) are either outside the shut-in (the segmentation ends it where the
+        # pressure leaves its decline: the valve opening) or rejected at the boundary,
+        # with that reason; never a closure.
         rej = _boundary_rejections(cp)
-        assert rej, (test, i)
-        # the breaks the methods took for closure before (25-44 s before the next phase)
         assert all(nxt.t_start - 60.0 <= r.t < nxt.t_start for r in rej), (test, i, rej)
-        assert "phase boundary" in cp.get("FCP", "sqrt_t").message
+        if rej:
+            assert "phase boundary" in cp.get("FCP", "sqrt_t").message
 
 
 @needs_ams

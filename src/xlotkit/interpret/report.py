@@ -22,6 +22,7 @@ JSON schema (``picks.json``)
       "cycles": [
         {"index": int, "kind": str, "reference": str, "t_start_s": float, "t_end_s": float,
          "lop_bar", "fbp_bar", "reopening_bar", "fpp_bar", "isip_bar": float | null,
+         "fep_bar": float | null (fracture-extension pressure of a step-rate test),
          "fcp_bar", "fcp_low_bar", "fcp_high_bar", "fcp_level": float | null,
          "fcp_quality": str, "fcp_rule": str, "fcp_message": str,
          "stiffness_bar_per_m3", "stiffness_stderr_bar_per_m3": float | null,
@@ -150,6 +151,7 @@ def _cycle_dict(cp: CyclePicks) -> dict[str, Any]:
         "reopening_bar": _value_bar(cp.get("Pr")),
         "fpp_bar": _value_bar(cp.get("FPP")),
         "isip_bar": _value_bar(cp.get("ISIP")),
+        "fep_bar": _value_bar(cp.get("FEP")),
         "fcp_bar": _value_bar(fcp),
         "fcp_low_bar": _bar(fcp.low) if fcp.found else None,
         "fcp_high_bar": _bar(fcp.high) if fcp.found else None,

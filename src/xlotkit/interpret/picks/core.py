@@ -16,7 +16,8 @@ step-rate test, stimulation ...).
   or casing test it is the pressure the system held).
 * The first test cycle: ``LOP`` and ``FBP`` (the breakdown event; the pick reports "not
   found" when the pressure never fell at an unchanged rate). Later test cycles: ``Pr``
-  (reopening). Every test cycle: ``FPP``.
+  (reopening). Every test cycle: ``FPP``; a ``step_rate`` cycle also ``FEP``, the
+  fracture-extension pressure (:mod:`~xlotkit.interpret.picks.steprate`).
 * Fracture closure (``FCP``) in test cycles: every shut-in method of
   :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a pump stop
   followed by a shut-in, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`)
@@ -111,6 +112,7 @@ from xlotkit.interpret.picks.details import (
 )
 from xlotkit.interpret.picks.flowback import FLOWBACK_METHODS, pick_fcp_flowback
 from xlotkit.interpret.picks.models import fit_line
+from xlotkit.interpret.picks.steprate import pick_fep_entry
 from xlotkit.interpret.picks.types import Pick
 from xlotkit.quiet import captured
 from xlotkit.record import Record
@@ -261,6 +263,7 @@ METHODS: tuple[MethodEntry, ...] = (
     MethodEntry("Pr", "auto", "pump", _reopening),
     MethodEntry("FPP", "auto", "pump", _fpp),
     MethodEntry("ISIP", "auto", "shut_in", _isip),
+    MethodEntry("FEP", "two_line", "pump", pick_fep_entry),
     MethodEntry("FCP", "tangent", "shut_in", _fcp_tangent, takes_tangents=True),
     MethodEntry("FCP", "sqrt_t", "shut_in", _fcp_sqrt_t),
     MethodEntry("FCP", "g_function", "shut_in", _fcp_g_function),
@@ -767,6 +770,8 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
     else:
         picks.append(press("Pr"))
     picks.append(press("FPP"))
+    if cycle.kind == "step_rate":
+        picks.append(press("FEP"))
     isip = press("ISIP")
     picks.append(isip)
 

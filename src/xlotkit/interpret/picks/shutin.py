@@ -316,7 +316,7 @@ class _Break:
 
 
 def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float = 0.0,
-                confirm: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                confirm: float | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Score of a slope break at every sample, for window ``w``.
 
     Three adjacent windows of width ``w`` in G: ``LL`` and ``L`` before the sample, ``R``
@@ -408,9 +408,12 @@ def _best_break(G: np.ndarray, p: np.ndarray, t: np.ndarray, sigma: float,
     q = quantum(p)
     best: _Break | None = None
     candidates: list[_Break] = []
-    conf = BREAK_SCALES[0] * span if confirm else None
     widths = [f * span for f in BREAK_SCALES] + [f * G for f in BREAK_SCALES_LOCAL]
     for j, w in enumerate(widths):
+        # the new slope is confirmed over the finest window of the same kind: the finest
+        # scan window of the range, or the local window itself (a long decline's range
+        # would ask an early closure to last far into the after-closure flow)
+        conf = (BREAK_SCALES[0] * span if j < len(BREAK_SCALES) else w) if confirm else None
         score, sL, sR = _scan_break(G, p, w, sigma, q, confirm=conf)
         ok = np.isfinite(score)
         edges = np.diff(np.concatenate([[0], ok.astype(int), [0]]))
