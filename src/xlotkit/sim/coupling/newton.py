@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from xlotkit.sim.coupling.linear import LinearSolver
 from xlotkit.sim.coupling.model import CoupledResidual, Structure
 from xlotkit.sim.mechanics import OPEN, SLIP, STICK
 
@@ -164,38 +164,17 @@ def branch_violation(model, res: CoupledResidual, st: Structure, fstat: np.ndarr
 
 
 def equilibrated_solve(J: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``J x = rhs`` with row then column scaling by the largest entries."""
-    A = J.tocsc(copy=True)
-    A.sum_duplicates()
-    n = A.shape[0]
-    # scalings on the CSC arrays directly (the sparse-matrix products they replace cost
-    # as much as the factorisation on a few-thousand-unknown model)
-    ad = np.abs(A.data)
-    rmax = np.zeros(n)
-    np.maximum.at(rmax, A.indices, ad)
-    r = np.where(rmax > 0, 1.0 / np.where(rmax > 0, rmax, 1.0), 1.0)
-    A.data *= r[A.indices]
-    col = np.repeat(np.arange(n), np.diff(A.indptr))
-    cmax = np.zeros(n)
-    np.maximum.at(cmax, col, np.abs(A.data))
-    c = np.where(cmax > 0, 1.0 / np.where(cmax > 0, cmax, 1.0), 1.0)
-    A.data *= c[col]
-    b = r * rhs
-    # the coupled matrix is structurally symmetric (K, G / dV_du, the flow graph): a
-    # minimum-degree ordering of A + A^T with pivots preferred on the diagonal fills about
-    # half as much as the default column ordering and factors twice as fast (measured on a
-    # 3085-unknown cracked model: 15 vs 29 ms); the default is the fallback when the
-    # diagonal pivots are poor
-    try:
-        y = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                      options={"SymmetricMode": True}).solve(b)
-        ok = np.all(np.isfinite(y)) and (np.linalg.norm(A @ y - b)
-                                         <= 1e-10 * max(np.linalg.norm(b), 1e-300))
-    except RuntimeError:
-        ok = False
-    if not ok:
-        y = spla.splu(A).solve(b)
-    return c * y
+    """Solve ``J x = rhs`` with row then column scaling by the largest entries: a fresh
+    sparse LU (minimum-degree ordering of ``A + A^T``, diagonal pivots preferred; SuperLU's
+    default ordering with partial pivoting when those pivots are poor), nothing reused
+    (:class:`~xlotkit.sim.coupling.linear.LinearSolver` without a pattern).
+
+    Raises
+    ------
+    RuntimeError
+        If the matrix is singular.
+    """
+    return LinearSolver(krylov_iterations=0).solve(J, rhs)
 
 
 # =========================================================================== the solve
@@ -221,6 +200,9 @@ class NewtonSolve:
         The cluster states of the solve.
     max_it : int, optional
         Iteration limit (default ``control.max_newton``).
+    solver : LinearSolver, optional
+        The linear solver (its ordering and factor reused across the iterations while
+        the pattern and the contact statuses hold); default a fresh one.
 
     Attributes
     ----------
@@ -229,8 +211,10 @@ class NewtonSolve:
     """
 
     def __init__(self, model, control, counters, x: np.ndarray, old, dt: float,
-                 undrained: bool, structure: Structure, max_it: int | None = None) -> None:
+                 undrained: bool, structure: Structure, max_it: int | None = None,
+                 solver: LinearSolver | None = None) -> None:
         self.model, self.control, self.counters = model, control, counters
+        self.solver = LinearSolver() if solver is None else solver
         self.old, self.dt, self.undrained, self.st = old, dt, undrained, structure
         self.max_newton = control.max_newton if max_it is None else int(max_it)
         self.x = x
@@ -286,6 +270,12 @@ class NewtonSolve:
             xx, self.old, self.dt, undrained=self.undrained, structure=self.st,
             soft=self.soft, permeability_derivative=self.full_k, frozen=frozen)
 
+    def _residual(self, xx, frozen):
+        """The residual alone (a line-search trial point)."""
+        self.counters.residual_evaluations += 1
+        return self.model.residual(xx, self.old, self.dt, undrained=self.undrained,
+                                   structure=self.st, soft=self.soft, frozen=frozen)
+
     def _fail(self, reason: str) -> State:
         self.reason = reason
         return State.DONE
@@ -296,7 +286,10 @@ class NewtonSolve:
 
     # ------------------------------------------------------------------ states
     def _evaluate_state(self) -> State:
-        res = self._evaluate(self.x, self.frz) if self.pending is None else self.pending
+        res = self.pending
+        if res is None or res.jacobian is None:
+            # (an accepted line-search point was evaluated without its Jacobian)
+            res = self._evaluate(self.x, self.frz)
         self.pending = None
         self.res = res
         self.R = res.residual
@@ -459,8 +452,12 @@ class NewtonSolve:
     def _update_state(self) -> State:
         ctl, res = self.control, self.res
         t0 = time.perf_counter()
+        # the factor is reused while the pattern and what the Jacobian was linearised
+        # with (contact statuses, softened contacts, Picard or full) are the same
+        key = (None if res.status is None else res.status.tobytes(),
+               None if self.soft is None else self.soft.tobytes(), self.full_k)
         try:
-            dx = equilibrated_solve(res.jacobian, -self.R)
+            dx = self.solver.solve(res.jacobian, -self.R, pattern=res.pattern, key=key)
         except RuntimeError:
             self.counters.linear_solve_time += time.perf_counter() - t0
             return self._fail("newton: singular")
@@ -475,7 +472,7 @@ class NewtonSolve:
             # the statuses can cycle and the line search restores descent); not with
             # the lagged Jacobian, whose direction need not descend
             for _ in range(8):
-                trial = self._evaluate(self.x + step * dx, self.frz)
+                trial = self._residual(self.x + step * dx, self.frz)
                 if np.all(np.isfinite(trial.residual)) and scaled_norms(
                         self.model, trial)[2] < self.merit:
                     self.pending = trial
@@ -489,9 +486,9 @@ class NewtonSolve:
 
 
 def newton(stepper: Any, x, old, dt, undrained, st, max_it=None):
-    """A :class:`NewtonSolve` with the stepper's model, control and counters (its trace
-    kept as ``stepper.last_newton_trace``)."""
+    """A :class:`NewtonSolve` with the stepper's model, control, counters and linear solver
+    (its trace kept as ``stepper.last_newton_trace``)."""
     solve = NewtonSolve(stepper.model, stepper.control, stepper.counters, x, old, dt,
-                        undrained, st, max_it)
+                        undrained, st, max_it, stepper.linear_solver)
     stepper.last_newton_trace = solve.trace
     return solve.run()

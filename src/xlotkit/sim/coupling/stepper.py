@@ -25,6 +25,7 @@ from typing import Callable
 import numpy as np
 
 from xlotkit.errors import InputError
+from xlotkit.sim.coupling.linear import LinearSolver
 from xlotkit.sim.coupling.model import CoupledModel, CoupledResidual, CoupledState, Structure
 from xlotkit.sim.coupling.newton import newton
 from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT
@@ -413,6 +414,9 @@ class CoupledStepper:
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
         self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
+        # the Newton's linear solver: orderings kept per pattern, the factor reused within
+        # a step (dropped at every step, so no step depends on an earlier one's factor)
+        self.linear_solver = LinearSolver()
 
     # ---------------------------------------------------------------- failure
     def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
@@ -560,6 +564,7 @@ class CoupledStepper:
         old = self.state
         st = model.structure_of(old)
         x = model.x_of(old)
+        self.linear_solver.reset()
         t_new = old.t if undrained else old.t + dt
         step_dt = 0.0 if undrained else dt
         its = solves = rounds = new_total = 0

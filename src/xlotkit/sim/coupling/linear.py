@@ -1,0 +1,373 @@
+"""Linear solves of the coupled Newton: equilibrated sparse LU with its ordering and its
+factor reused.
+
+The coupled Jacobian's rows mix forces [N/m per m] and mass rates [kg/s per Pa] over many
+decades, so it is equilibrated (rows by their largest entry, then columns by theirs, as
+:func:`~xlotkit.sim.coupling.newton.equilibrated_solve` always did) and factored by
+SuperLU. Two things are reused:
+
+* **the ordering**: the fill-reducing column ordering (minimum degree on ``A + A^T``,
+  diagonal pivots preferred; the coupled matrix is structurally symmetric) depends only on
+  the sparsity pattern, which stays the same object while no cluster fails
+  (:class:`~xlotkit.sim.coupling.assembly.CoupledPattern`). It is computed once per pattern
+  (on a diagonally dominant matrix of that pattern, so that it is a function of the pattern
+  alone) and every factorisation on the pattern factors the symmetrically permuted matrix
+  in its natural order; SciPy's SuperLU does not expose its symbolic analysis, so this is
+  how the ordering is reused;
+* **the numeric factor**: while the contact statuses (the active set) the Jacobian was
+  linearised with are unchanged, the next Newton iterations solve with GMRES
+  right-preconditioned by the last factor (:class:`LinearSolver`); within an active set the
+  Jacobian changes only smoothly (fluid density, crack permeability), so a few Krylov
+  iterations reach the same accuracy as a direct solve. When GMRES does not converge
+  within its budget, or is converging too slowly to, the matrix is factored afresh. The
+  factor is dropped at :meth:`LinearSolver.reset` (the stepper does so at every step), so
+  a step's numbers never depend on the steps before it: a resumed run repeats an
+  uninterrupted one bit for bit.
+
+Safeguards kept from the direct solve: a solve is accepted only with a scaled residual
+``|A y - b| <= 1e-10 |b|``; otherwise SuperLU's default column ordering with partial
+pivoting is the fallback.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from numba import njit
+
+from xlotkit.errors import InputError
+
+__all__ = ["LinearSolver", "LinearStats", "equilibrate"]
+
+#: Relative scaled residual a solve must reach (the direct solve's acceptance test).
+SOLVE_RTOL = 1e-10
+
+_LU_OPTIONS = dict(diag_pivot_thresh=0.1, options={"SymmetricMode": True})
+
+
+@njit(cache=True)
+def _equilibrate_kernel(data, indices, indptr, out, r, c):  # pragma: no cover - compiled
+    n = indptr.shape[0] - 1
+    for i in range(r.shape[0]):
+        r[i] = 0.0
+    for j in range(n):
+        for k in range(indptr[j], indptr[j + 1]):
+            a = abs(data[k])
+            if a > r[indices[k]]:
+                r[indices[k]] = a
+    for i in range(r.shape[0]):
+        r[i] = 1.0 / r[i] if r[i] > 0.0 else 1.0
+    for j in range(n):
+        cm = 0.0
+        for k in range(indptr[j], indptr[j + 1]):
+            a = abs(data[k] * r[indices[k]])
+            if a > cm:
+                cm = a
+        c[j] = 1.0 / cm if cm > 0.0 else 1.0
+        for k in range(indptr[j], indptr[j + 1]):
+            out[k] = data[k] * r[indices[k]] * c[j]
+
+
+def equilibrate(A: sp.csc_matrix) -> tuple[sp.csc_matrix, np.ndarray, np.ndarray]:
+    """Row then column equilibration of a square CSC matrix (no duplicate entries).
+
+    Returns ``(R A C, r, c)`` with ``r_i = 1 / max_j |a_ij|`` and ``c_j = 1 / max_i |r_i
+    a_ij|`` (1 for an empty row or column).
+    """
+    if not sp.issparse(A) or A.format != "csc" or A.shape[0] != A.shape[1]:
+        raise InputError("expected a square CSC matrix", key="A")
+    n = A.shape[0]
+    out = np.empty_like(A.data, dtype=np.float64)
+    r = np.empty(n)
+    c = np.empty(n)
+    _equilibrate_kernel(np.ascontiguousarray(A.data, dtype=np.float64),
+                        A.indices.astype(np.int64), A.indptr.astype(np.int64), out, r, c)
+    return sp.csc_matrix((out, A.indices, A.indptr), shape=A.shape), r, c
+
+
+@dataclass
+class LinearStats:
+    """Work of a :class:`LinearSolver`.
+
+    Attributes
+    ----------
+    solves : int
+        Linear systems solved.
+    factorisations : int
+        Numeric LU factorisations (each solve that did not reuse a factor).
+    orderings : int
+        Fill-reducing orderings computed (one per new sparsity pattern).
+    krylov_solves : int
+        Solves done by GMRES with a reused factor.
+    krylov_iterations : int
+        Their GMRES iterations (one triangular solve each).
+    krylov_failures : int
+        GMRES attempts abandoned for a fresh factorisation.
+    fallbacks : int
+        Factorisations redone with SuperLU's default ordering and partial pivoting.
+    factor_time, krylov_time : float
+        Wall time [s] in factorisations (orderings included) and in the GMRES solves.
+    """
+
+    solves: int = 0
+    factorisations: int = 0
+    orderings: int = 0
+    krylov_solves: int = 0
+    krylov_iterations: int = 0
+    krylov_failures: int = 0
+    fallbacks: int = 0
+    factor_time: float = 0.0
+    krylov_time: float = 0.0
+
+
+class _Ordering:
+    """The symmetric permutation of one sparsity pattern and the map from the CSR data of
+    a matrix on the pattern to the CSC data of the permuted matrix."""
+
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, n: int) -> None:
+        nnz = int(indptr[-1])
+        rows = np.repeat(np.arange(n), np.diff(indptr))
+        # a diagonally dominant matrix of the pattern: its minimum-degree ordering (of
+        # A + A^T, a function of the structure only) without pivoting
+        deg = np.diff(indptr).astype(float)
+        vals = np.where(rows == indices, deg[rows] + 1.0, 1.0)
+        S = sp.csr_matrix((vals, indices, indptr), shape=(n, n)).tocsc()
+        lu = spla.splu(S, permc_spec="MMD_AT_PLUS_A", **_LU_OPTIONS)
+        q = np.argsort(lu.perm_c)            # new position k holds old unknown q[k]
+        self.q = q
+        self.fill = int(lu.L.nnz + lu.U.nnz)
+        pos = np.empty(n, dtype=np.int64)
+        pos[q] = np.arange(n)
+        # entry e of the CSR data is (rows[e], indices[e]) -> (pos[row], pos[col]) in the
+        # permuted matrix; sort by (col, row) for CSC
+        pr, pc = pos[rows], pos[indices]
+        order = np.lexsort((pr, pc))
+        self.map = order                       # CSC data = CSR data[map]
+        self.indices = pr[order].astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(pc, minlength=n))]
+                                     ).astype(np.int32)
+        self.nnz = nnz
+
+
+class _Factor:
+    """An equilibrated LU of a (permuted) matrix and how to apply its inverse."""
+
+    def __init__(self, lu, A: sp.csc_matrix, r: np.ndarray, c: np.ndarray,
+                 q: np.ndarray | None, pattern, key) -> None:
+        self.lu, self.A, self.pattern, self.key = lu, A, pattern, key
+        self.q = q
+        if q is None:
+            self.r, self.c = r, c
+        else:
+            # scalings in the unpermuted numbering
+            self.r = np.empty_like(r)
+            self.c = np.empty_like(c)
+            self.r[q] = r
+            self.c[q] = c
+
+    def apply(self, v: np.ndarray) -> np.ndarray:
+        """``J_f^{-1} v`` for the factored matrix ``J_f``."""
+        b = self.r * v
+        if self.q is None:
+            return self.c * self.lu.solve(b)
+        y = self.lu.solve(b[self.q])
+        out = np.empty_like(y)
+        out[self.q] = y
+        return self.c * out
+
+
+class LinearSolver:
+    """Solves of the coupled Jacobian with its ordering and its factor reused (module
+    docstring).
+
+    Parameters
+    ----------
+    krylov_iterations : int
+        GMRES iterations allowed with a reused factor before factoring afresh; 0 never
+        reuses the factor (every solve factors).
+    krylov_rtol : float
+        Scaled residual GMRES must reach (default :data:`SOLVE_RTOL`, the direct solve's).
+    max_orderings : int
+        Orderings kept (by pattern).
+
+    Attributes
+    ----------
+    stats : LinearStats
+    """
+
+    def __init__(self, krylov_iterations: int = 10, krylov_rtol: float = SOLVE_RTOL,
+                 max_orderings: int = 4) -> None:
+        if int(krylov_iterations) < 0:
+            raise InputError("must be >= 0", key="krylov_iterations")
+        if not 0 < krylov_rtol < 1:
+            raise InputError("must be in (0, 1)", key="krylov_rtol")
+        self.krylov_iterations = int(krylov_iterations)
+        self.krylov_rtol = float(krylov_rtol)
+        self.max_orderings = int(max_orderings)
+        self.stats = LinearStats()
+        self._orderings: dict[bytes, _Ordering] = {}
+        self._factor: _Factor | None = None
+
+    def reset(self) -> None:
+        """Drop the numeric factor (the orderings, functions of the patterns, are kept)."""
+        self._factor = None
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, J: sp.spmatrix, rhs: np.ndarray, pattern=None, key=None) -> np.ndarray:
+        """Solve ``J x = rhs``.
+
+        Parameters
+        ----------
+        J : sparse matrix (n, n)
+        rhs : ndarray (n,)
+        pattern : CoupledPattern, optional
+            The pattern ``J`` is assembled on (CSR, its structure): enables the ordering
+            reuse. Without it the solve is a plain equilibrated LU.
+        key : hashable, optional
+            What the Jacobian was linearised with beyond its pattern (the contact
+            statuses): the factor is reused only for the same pattern and key.
+
+        Raises
+        ------
+        RuntimeError
+            If the matrix is singular.
+        """
+        rhs = np.asarray(rhs, dtype=float)
+        if J.shape[0] != J.shape[1] or rhs.shape != (J.shape[0],):
+            raise InputError(f"J {J.shape} and rhs {rhs.shape} do not match", key="rhs")
+        self.stats.solves += 1
+        f = self._factor
+        if (f is not None and self.krylov_iterations > 0 and pattern is not None
+                and f.pattern is pattern and f.key == key):
+            x = self._gmres(J, rhs, f)
+            if x is not None:
+                return x
+        return self._factor_and_solve(J, rhs, pattern, key)
+
+    def _ordering(self, pattern) -> _Ordering:
+        k = pattern.crack_cells.tobytes() + np.int64(pattern.n).tobytes()
+        o = self._orderings.get(k)
+        if o is None or o.nnz != pattern.nnz:
+            o = _Ordering(pattern.indptr, pattern.indices, pattern.n)
+            self.stats.orderings += 1
+            if len(self._orderings) >= self.max_orderings:
+                self._orderings.pop(next(iter(self._orderings)))
+            self._orderings[k] = o
+        return o
+
+    def _factor_and_solve(self, J, rhs, pattern, key) -> np.ndarray:
+        t0 = time.perf_counter()
+        try:
+            if pattern is not None:
+                o = self._ordering(pattern)
+                Jc = sp.csr_matrix(J)
+                if Jc.nnz != o.nnz:
+                    raise InputError("J is not on its pattern", key="J")
+                P = sp.csc_matrix((Jc.data[o.map], o.indices, o.indptr), shape=J.shape)
+                A, r, c = equilibrate(P)
+                q = o.q
+                b = (r * rhs[q]) if q is not None else r * rhs
+                spec = "NATURAL"
+            else:
+                P = J.tocsc(copy=True)
+                P.sum_duplicates()
+                A, r, c = equilibrate(P)
+                q = None
+                b = r * rhs
+                # minimum degree on A + A^T with diagonal pivots preferred: the coupled
+                # matrix is structurally symmetric (about half the fill of the default)
+                spec = "MMD_AT_PLUS_A"
+            self.stats.factorisations += 1
+            try:
+                lu = spla.splu(A, permc_spec=spec, **_LU_OPTIONS)
+                y = lu.solve(b)
+                ok = bool(np.all(np.isfinite(y))) and (
+                    np.linalg.norm(A @ y - b) <= SOLVE_RTOL * max(np.linalg.norm(b), 1e-300))
+            except RuntimeError:
+                ok = False
+            if not ok:
+                # the diagonal pivots were poor: default ordering, partial pivoting
+                self.stats.fallbacks += 1
+                lu = spla.splu(A)
+                y = lu.solve(b)
+            fac = _Factor(lu, A, r, c, q, pattern, key)
+            self._factor = fac if pattern is not None else None
+            x = c * y
+            if q is not None:
+                out = np.empty_like(x)
+                out[q] = x
+                x = out
+            return x
+        finally:
+            self.stats.factor_time += time.perf_counter() - t0
+
+    def _gmres(self, J, rhs, f: _Factor) -> np.ndarray | None:
+        """GMRES on the row-scaled system ``R J x = R rhs``, right-preconditioned by the
+        factor ``f`` (``x = J_f^{-1} R^{-1} w``); None when it does not reach the
+        tolerance within the budget (or is converging too slowly to)."""
+        t0 = time.perf_counter()
+        try:
+            r = f.r
+            b = r * rhs
+            beta = float(np.linalg.norm(b))
+            if beta == 0.0:
+                return np.zeros_like(rhs)
+            kmax = self.krylov_iterations
+            tol = self.krylov_rtol * beta
+            n = len(rhs)
+            V = np.empty((kmax + 1, n))
+            Z = np.empty((kmax, n))
+            H = np.zeros((kmax + 1, kmax))
+            cs = np.zeros(kmax)
+            sn = np.zeros(kmax)
+            g = np.zeros(kmax + 1)
+            g[0] = beta
+            V[0] = b / beta
+            k = 0
+            for j in range(kmax):
+                Z[j] = f.apply(V[j] / r)
+                w = r * (J @ Z[j])
+                for i in range(j + 1):           # modified Gram-Schmidt
+                    H[i, j] = float(V[i] @ w)
+                    w -= H[i, j] * V[i]
+                hn = float(np.linalg.norm(w))
+                H[j + 1, j] = hn
+                for i in range(j):               # the earlier Givens rotations
+                    t = cs[i] * H[i, j] + sn[i] * H[i + 1, j]
+                    H[i + 1, j] = -sn[i] * H[i, j] + cs[i] * H[i + 1, j]
+                    H[i, j] = t
+                d = float(np.hypot(H[j, j], H[j + 1, j]))
+                if d == 0.0:
+                    break
+                cs[j], sn[j] = H[j, j] / d, H[j + 1, j] / d
+                H[j, j] = d
+                H[j + 1, j] = 0.0
+                g[j + 1] = -sn[j] * g[j]
+                g[j] = cs[j] * g[j]
+                k = j + 1
+                self.stats.krylov_iterations += 1
+                res = abs(g[j + 1])
+                if res <= tol or hn == 0.0:
+                    break
+                # converging too slowly to reach the tolerance within the budget (at
+                # its rate so far, with a margin of 100): the factor is stale
+                if j >= 2 and (res / beta) ** (kmax / (j + 1)) > 100.0 * self.krylov_rtol:
+                    break
+                V[j + 1] = w / hn
+            if k == 0:
+                self.stats.krylov_failures += 1
+                return None
+            y = np.linalg.solve(np.triu(H[:k, :k]), g[:k])
+            x = Z[:k].T @ y
+            # the true scaled residual decides (the recurrence drifts near 1e-10)
+            if np.all(np.isfinite(x)) and np.linalg.norm(b - r * (J @ x)) <= tol:
+                self.stats.krylov_solves += 1
+                return x
+            self.stats.krylov_failures += 1
+            return None
+        finally:
+            self.stats.krylov_time += time.perf_counter() - t0

