@@ -252,6 +252,12 @@ class CoupledLayout:
             self._keys[name] = np.where(ok, r * np.int64(n) + c, -1)
         base = np.concatenate([v[v >= 0] for v in self._keys.values()])
         self._base = np.unique(base)
+        # every block's slots in the base structure (shifted when crack entries are
+        # inserted)
+        self._base_slots = {}
+        for name, k in self._keys.items():
+            pos = np.searchsorted(self._base, np.where(k >= 0, k, 0))
+            self._base_slots[name] = np.where(k >= 0, pos, -1).astype(np.int64)
         # crack block: entry t of dR/dk (row pr_t, cell pc_t) times DOF k of that cell
         cr = red[self._perm_cell]                                    # (n_k, 6)
         ok = (cr >= 0) & self._perm_valid[:, None]
@@ -276,24 +282,30 @@ class CoupledLayout:
         if self._cached is not None and np.array_equal(self._cached.crack_cells, cc):
             return self._cached
         n = self.n
+        base = self._base
         use = cc[self._perm_cell] & self._perm_valid
         ck = np.where(use[:, None], self._crack_keys, -1)
-        extra = ck[ck >= 0]
-        keys = self._base if extra.size == 0 else np.union1d(self._base, extra)
+        extra = np.unique(ck[ck >= 0])
+        # insert the crack entries not already in the base structure (both sorted)
+        at = np.searchsorted(base, extra)
+        new = extra[~((at < len(base)) & (base[np.minimum(at, len(base) - 1)] == extra))]
+        keys = np.insert(base, np.searchsorted(base, new), new)
+        moved = np.arange(len(base)) + np.searchsorted(new, base)   # base slot -> slot
 
-        def slots(k):
-            out = np.searchsorted(keys, np.where(k >= 0, k, 0))
-            return np.where(k >= 0, out, -1).astype(np.int64)
+        def shifted(name):
+            bs = self._base_slots[name]
+            return np.where(bs >= 0, moved[np.maximum(bs, 0)], -1)
 
+        crack = np.searchsorted(keys, np.where(ck >= 0, ck, 0))
         rows = keys // n
         indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))])
+        diag = np.searchsorted(keys, self._diag_keys)
         pat = CoupledPattern(
             n=n, indptr=indptr.astype(np.int32), indices=(keys % n).astype(np.int32),
-            k_slots=slots(self._keys["k"]), g_slots=slots(self._keys["g"]),
-            gt_slots=slots(self._keys["gt"]), wcol_slots=slots(self._keys["wcol"]),
-            wrow_slots=slots(self._keys["wrow"]), flow_slots=slots(self._keys["flow"]),
-            crack_slots=slots(ck), diag_slots=slots(self._diag_keys),
-            crack_cells=cc.copy())
+            k_slots=shifted("k"), g_slots=shifted("g"), gt_slots=shifted("gt"),
+            wcol_slots=shifted("wcol"), wrow_slots=shifted("wrow"),
+            flow_slots=shifted("flow"), crack_slots=np.where(ck >= 0, crack, -1),
+            diag_slots=diag.astype(np.int64), crack_cells=cc.copy())
         self._cached = pat
         return pat
 

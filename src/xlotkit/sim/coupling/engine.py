@@ -601,6 +601,9 @@ class MDEMEngine:
             out[f"row.{k}"] = np.asarray(v, dtype=float)
         if self._open_hist is not None:
             out["open_hist.open"], out["open_hist.change"] = self._open_hist
+        pred = self.stepper.predictor_history    # what the next step extrapolates from
+        if pred is not None:
+            out["pred.t"], out["pred.x"] = np.array(pred[0]), pred[1]
         scal = {
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
@@ -635,6 +638,8 @@ class MDEMEngine:
                           volume_offset=arr["volume_offset"], failure_time=arr["failure_time"],
                           failure_volume=arr["failure_volume"])
         self.stepper.state = st
+        if "pred.x" in arr:
+            self.stepper.predictor_history = (float(arr["pred.t"]), arr["pred.x"])
         self.stepper.counters = CoupledCounters(**scal["counters"])
         self._m_intact0 = arr["m_intact0"]
         self._rows = {k: arr[f"row.{k}"].astype(float).tolist() for k in _ROW_KEYS}

@@ -72,6 +72,28 @@ def _equilibrate_kernel(data, indices, indptr, out, r, c):  # pragma: no cover -
             out[k] = data[k] * r[indices[k]] * c[j]
 
 
+@njit(cache=True)
+def _permuted_csc_kernel(indptr, indices, q, pos, out_map, out_indices, out_indptr):  # pragma: no cover - compiled
+    # CSC of P A P^T from the CSR of A: column counts, then rows visited in their new
+    # order so that every column's rows come out sorted
+    n = q.shape[0]
+    for j in range(n + 1):
+        out_indptr[j] = 0
+    for e in range(indptr[n]):
+        out_indptr[pos[indices[e]] + 1] += 1
+    for j in range(n):
+        out_indptr[j + 1] += out_indptr[j]
+    nxt = out_indptr[:n].copy()
+    for i in range(n):
+        r = q[i]
+        for e in range(indptr[r], indptr[r + 1]):
+            c = pos[indices[e]]
+            k = nxt[c]
+            out_map[k] = e
+            out_indices[k] = i
+            nxt[c] = k + 1
+
+
 def equilibrate(A: sp.csc_matrix) -> tuple[sp.csc_matrix, np.ndarray, np.ndarray]:
     """Row then column equilibration of a square CSC matrix (no duplicate entries).
 
@@ -125,31 +147,25 @@ class LinearStats:
 
 
 class _Ordering:
-    """The symmetric permutation of one sparsity pattern and the map from the CSR data of
-    a matrix on the pattern to the CSC data of the permuted matrix."""
+    """The symmetric permutation of one sparsity pattern (from the minimum-degree column
+    ordering SuperLU computed for it: a function of the structure alone) and the map from
+    the CSR data of a matrix on the pattern to the CSC data of the permuted matrix."""
 
-    def __init__(self, indptr: np.ndarray, indices: np.ndarray, n: int) -> None:
-        nnz = int(indptr[-1])
-        rows = np.repeat(np.arange(n), np.diff(indptr))
-        # a diagonally dominant matrix of the pattern: its minimum-degree ordering (of
-        # A + A^T, a function of the structure only) without pivoting
-        deg = np.diff(indptr).astype(float)
-        vals = np.where(rows == indices, deg[rows] + 1.0, 1.0)
-        S = sp.csr_matrix((vals, indices, indptr), shape=(n, n)).tocsc()
-        lu = spla.splu(S, permc_spec="MMD_AT_PLUS_A", **_LU_OPTIONS)
-        q = np.argsort(lu.perm_c)            # new position k holds old unknown q[k]
+    def __init__(self, indptr: np.ndarray, indices: np.ndarray, n: int,
+                 perm_c: np.ndarray) -> None:
+        q = np.argsort(perm_c)               # new position k holds old unknown q[k]
         self.q = q
-        self.fill = int(lu.L.nnz + lu.U.nnz)
         pos = np.empty(n, dtype=np.int64)
         pos[q] = np.arange(n)
-        # entry e of the CSR data is (rows[e], indices[e]) -> (pos[row], pos[col]) in the
-        # permuted matrix; sort by (col, row) for CSC
-        pr, pc = pos[rows], pos[indices]
-        order = np.lexsort((pr, pc))
-        self.map = order                       # CSC data = CSR data[map]
-        self.indices = pr[order].astype(np.int32)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(pc, minlength=n))]
-                                     ).astype(np.int32)
+        nnz = int(indptr[-1])
+        self.map = np.empty(nnz, dtype=np.int64)         # CSC data = CSR data[map]
+        ind = np.empty(nnz, dtype=np.int64)
+        ptr = np.empty(n + 1, dtype=np.int64)
+        _permuted_csc_kernel(np.asarray(indptr, dtype=np.int64),
+                             np.asarray(indices, dtype=np.int64), q.astype(np.int64), pos,
+                             self.map, ind, ptr)
+        self.indices = ind.astype(np.int32)
+        self.indptr = ptr.astype(np.int32)
         self.nnz = nnz
 
 
@@ -157,8 +173,9 @@ class _Factor:
     """An equilibrated LU of a (permuted) matrix and how to apply its inverse."""
 
     def __init__(self, lu, A: sp.csc_matrix, r: np.ndarray, c: np.ndarray,
-                 q: np.ndarray | None, pattern, key) -> None:
-        self.lu, self.A, self.pattern, self.key = lu, A, pattern, key
+                 q: np.ndarray | None, pattern, status, variant) -> None:
+        self.lu, self.A, self.pattern = lu, A, pattern
+        self.status, self.variant = status, variant
         self.q = q
         if q is None:
             self.r, self.c = r, c
@@ -191,6 +208,10 @@ class LinearSolver:
         reuses the factor (every solve factors).
     krylov_rtol : float
         Scaled residual GMRES must reach (default :data:`SOLVE_RTOL`, the direct solve's).
+    max_changes : int
+        Contacts whose status may differ from the factored Jacobian's for the factor to
+        be tried: each changes the tangent by a rank-2 term, which GMRES resolves in about
+        two iterations.
     max_orderings : int
         Orderings kept (by pattern).
 
@@ -199,25 +220,34 @@ class LinearSolver:
     stats : LinearStats
     """
 
-    def __init__(self, krylov_iterations: int = 10, krylov_rtol: float = SOLVE_RTOL,
-                 max_orderings: int = 4) -> None:
+    def __init__(self, krylov_iterations: int = 12, krylov_rtol: float = SOLVE_RTOL,
+                 max_changes: int = 4, max_orderings: int = 4) -> None:
         if int(krylov_iterations) < 0:
             raise InputError("must be >= 0", key="krylov_iterations")
         if not 0 < krylov_rtol < 1:
             raise InputError("must be in (0, 1)", key="krylov_rtol")
+        if int(max_changes) < 0:
+            raise InputError("must be >= 0", key="max_changes")
         self.krylov_iterations = int(krylov_iterations)
         self.krylov_rtol = float(krylov_rtol)
+        self.max_changes = int(max_changes)
         self.max_orderings = int(max_orderings)
         self.stats = LinearStats()
         self._orderings: dict[bytes, _Ordering] = {}
+        self._fresh: set[bytes] = set()
         self._factor: _Factor | None = None
 
     def reset(self) -> None:
-        """Drop the numeric factor (the orderings, functions of the patterns, are kept)."""
+        """Start afresh: drop the numeric factor, and factor the first matrix on each
+        pattern with the ordering computed for it (the orderings kept are used from the
+        second factorisation on). The numbers after a reset then do not depend on what
+        was solved before it."""
         self._factor = None
+        self._fresh = set()
 
     # ------------------------------------------------------------------ solve
-    def solve(self, J: sp.spmatrix, rhs: np.ndarray, pattern=None, key=None) -> np.ndarray:
+    def solve(self, J: sp.spmatrix, rhs: np.ndarray, pattern=None, status=None,
+              variant=None) -> np.ndarray:
         """Solve ``J x = rhs``.
 
         Parameters
@@ -226,10 +256,13 @@ class LinearSolver:
         rhs : ndarray (n,)
         pattern : CoupledPattern, optional
             The pattern ``J`` is assembled on (CSR, its structure): enables the ordering
-            reuse. Without it the solve is a plain equilibrated LU.
-        key : hashable, optional
-            What the Jacobian was linearised with beyond its pattern (the contact
-            statuses): the factor is reused only for the same pattern and key.
+            and factor reuse. Without it the solve is a plain equilibrated LU.
+        status : ndarray, optional
+            The contact statuses ``J`` was linearised with: the factor is reused while at
+            most ``max_changes`` of them differ from the factored matrix's.
+        variant : hashable, optional
+            Anything else the linearisation depends on (softened contacts): the factor
+            is reused only for the same variant.
 
         Raises
         ------
@@ -242,45 +275,40 @@ class LinearSolver:
         self.stats.solves += 1
         f = self._factor
         if (f is not None and self.krylov_iterations > 0 and pattern is not None
-                and f.pattern is pattern and f.key == key):
+                and f.pattern is pattern and f.variant == variant
+                and self._close(f.status, status)):
             x = self._gmres(J, rhs, f)
             if x is not None:
                 return x
-        return self._factor_and_solve(J, rhs, pattern, key)
+        return self._factor_and_solve(J, rhs, pattern, status, variant)
 
-    def _ordering(self, pattern) -> _Ordering:
-        k = pattern.crack_cells.tobytes() + np.int64(pattern.n).tobytes()
-        o = self._orderings.get(k)
-        if o is None or o.nnz != pattern.nnz:
-            o = _Ordering(pattern.indptr, pattern.indices, pattern.n)
-            self.stats.orderings += 1
-            if len(self._orderings) >= self.max_orderings:
-                self._orderings.pop(next(iter(self._orderings)))
-            self._orderings[k] = o
-        return o
+    def _close(self, a, b) -> bool:
+        if a is None or b is None:
+            return a is None and b is None
+        return a.shape == b.shape and int(np.count_nonzero(a != b)) <= self.max_changes
 
-    def _factor_and_solve(self, J, rhs, pattern, key) -> np.ndarray:
+    def _factor_and_solve(self, J, rhs, pattern, status, variant) -> np.ndarray:
         t0 = time.perf_counter()
         try:
-            if pattern is not None:
-                o = self._ordering(pattern)
-                Jc = sp.csr_matrix(J)
+            key = None if pattern is None else (pattern.crack_cells.tobytes()
+                                                + np.int64(pattern.nnz).tobytes())
+            o = None if key is None or key not in self._fresh else self._orderings.get(key)
+            if o is not None:
+                # the pattern's ordering: factor the permuted matrix as it stands
+                Jc = J if J.format == "csr" else J.tocsr()
                 if Jc.nnz != o.nnz:
                     raise InputError("J is not on its pattern", key="J")
                 P = sp.csc_matrix((Jc.data[o.map], o.indices, o.indptr), shape=J.shape)
-                A, r, c = equilibrate(P)
-                q = o.q
-                b = (r * rhs[q]) if q is not None else r * rhs
                 spec = "NATURAL"
             else:
                 P = J.tocsc(copy=True)
                 P.sum_duplicates()
-                A, r, c = equilibrate(P)
-                q = None
-                b = r * rhs
                 # minimum degree on A + A^T with diagonal pivots preferred: the coupled
                 # matrix is structurally symmetric (about half the fill of the default)
                 spec = "MMD_AT_PLUS_A"
+            A, r, c = equilibrate(P)
+            q = None if o is None else o.q
+            b = r * (rhs if q is None else rhs[q])
             self.stats.factorisations += 1
             try:
                 lu = spla.splu(A, permc_spec=spec, **_LU_OPTIONS)
@@ -288,14 +316,22 @@ class LinearSolver:
                 ok = bool(np.all(np.isfinite(y))) and (
                     np.linalg.norm(A @ y - b) <= SOLVE_RTOL * max(np.linalg.norm(b), 1e-300))
             except RuntimeError:
-                ok = False
+                lu, ok = None, False
+            if key is not None and lu is not None and spec != "NATURAL":
+                self._fresh.add(key)
+                if key not in self._orderings:
+                    self.stats.orderings += 1
+                    if len(self._orderings) >= self.max_orderings:
+                        self._orderings.pop(next(iter(self._orderings)))
+                    self._orderings[key] = _Ordering(pattern.indptr, pattern.indices,
+                                                     pattern.n, lu.perm_c)
             if not ok:
                 # the diagonal pivots were poor: default ordering, partial pivoting
                 self.stats.fallbacks += 1
                 lu = spla.splu(A)
                 y = lu.solve(b)
-            fac = _Factor(lu, A, r, c, q, pattern, key)
-            self._factor = fac if pattern is not None else None
+            if pattern is not None:
+                self._factor = _Factor(lu, A, r, c, q, pattern, status, variant)
             x = c * y
             if q is not None:
                 out = np.empty_like(x)

@@ -105,11 +105,20 @@ def scaled_norms(model, res: CoupledResidual) -> tuple[float, float, float]:
         rf / max(res.mass_scale, 1e-300)) ** 2
 
 
+def _abs_row_products(J, x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """``|J[lo:hi]| @ |x|`` of a CSR matrix, on its arrays (no sub-matrix built)."""
+    J = J if J.format == "csr" else J.tocsr()
+    a, b = int(J.indptr[lo]), int(J.indptr[hi])
+    prod = np.abs(J.data[a:b]) * np.abs(x[J.indices[a:b]])
+    rows = np.repeat(np.arange(hi - lo), np.diff(J.indptr[lo:hi + 1]))
+    return np.bincount(rows, weights=prod, minlength=hi - lo)
+
+
 def mass_floor(model, res: CoupledResidual, x: np.ndarray) -> float:
     """Round-off floor of ``sum |R_f|`` at the iterate ``x`` [kg/s]."""
     nu = model.n_u
-    Jf = abs(res.jacobian[nu:])
-    return 4.0 * np.finfo(float).eps * float(np.sum(Jf @ np.abs(x)))
+    J = res.jacobian
+    return 4.0 * np.finfo(float).eps * float(np.sum(_abs_row_products(J, x, nu, J.shape[0])))
 
 
 def forces_converged(model, control, res: CoupledResidual, x: np.ndarray, ru: float) -> bool:
@@ -127,7 +136,7 @@ def forces_converged(model, control, res: CoupledResidual, x: np.ndarray, ru: fl
         return False
     nu = model.n_u
     Ru = np.abs(res.residual[:nu])
-    floor = 4.0 * np.finfo(float).eps * (abs(res.jacobian[:nu]) @ np.abs(x))
+    floor = 4.0 * np.finfo(float).eps * _abs_row_products(res.jacobian, x, 0, nu)
     return bool(np.all(Ru <= np.maximum(control.force_rtol * res.force_scale, floor)))
 
 
@@ -139,7 +148,8 @@ def law_status(model, res: CoupledResidual, st: Structure):
     trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
     trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
     cap = mech.mu * np.maximum(-trial_n, 0.0)
-    law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
+    # (at the friction limit the slip branch, as the contact law's kernel says)
+    law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) >= cap, SLIP, STICK))
     return law, np.sign(trial_s)
 
 
@@ -323,6 +333,11 @@ class NewtonSolve:
         self.atol = atol
         u_ok = forces_converged(model, ctl, res, x, self.ru)
         conv = u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol
+        if not conv and u_ok and rf <= ctl.stagnation_rtol * res.mass_scale + atol:
+            # at the residual's round-off floor (below): no iteration can lower it, so
+            # it is accepted without waiting to see it stagnate (capped by the
+            # stagnation tolerance, which keeps the step's mass balance)
+            conv = rf <= ctl.mass_rtol * res.mass_scale + atol + mass_floor(model, res, x)
         if not conv and self.its > 0 and u_ok and rf > 0.5 * self.prev:
             # stagnating: accepted below stagnation_rtol or at the residual's
             # round-off floor, eps sum_ij |dR_i/dx_j| |x_j| over the flow rows (each
@@ -452,12 +467,12 @@ class NewtonSolve:
     def _update_state(self) -> State:
         ctl, res = self.control, self.res
         t0 = time.perf_counter()
-        # the factor is reused while the pattern and what the Jacobian was linearised
-        # with (contact statuses, softened contacts, Picard or full) are the same
-        key = (None if res.status is None else res.status.tobytes(),
-               None if self.soft is None else self.soft.tobytes(), self.full_k)
+        # the factor is reused while the pattern holds and the contact statuses the
+        # Jacobian was linearised with are (nearly) the same (softened contacts alike)
         try:
-            dx = self.solver.solve(res.jacobian, -self.R, pattern=res.pattern, key=key)
+            dx = self.solver.solve(res.jacobian, -self.R, pattern=res.pattern,
+                                   status=res.status,
+                                   variant=None if self.soft is None else self.soft.tobytes())
         except RuntimeError:
             self.counters.linear_solve_time += time.perf_counter() - t0
             return self._fail("newton: singular")

@@ -77,7 +77,12 @@ def _response_kernel(u, dofs, cstate, ref_n, ref_s, p, bn, K, F0, bn_c, bs_c, kn
                     else:
                         fn = tn
                         cap = mu[c, m] * (-fn)
-                        if abs(ts) > cap:
+                        # at the friction limit (|F_s| = cap, where every step leaves
+                        # a contact that slipped: its shear reference is moved so, and
+                        # a frictionless one sits at F_s = cap = 0) the force is the
+                        # same on either branch; the slip branch's tangent is the one
+                        # of the motion that put it there
+                        if abs(ts) >= cap:
                             st = SLIP
                             fs = sg * cap
                         else:
