@@ -27,8 +27,8 @@ from numba import njit
 
 from xlotkit.errors import InputError
 
-__all__ = ["CoupledLayout", "CoupledPattern", "assemble_jacobian", "cluster_forces",
-           "hold_rows"]
+__all__ = ["CoupledLayout", "CoupledPattern", "add_crack_block", "assemble_jacobian",
+           "cluster_forces", "hold_rows"]
 
 
 # --------------------------------------------------------------------------- kernels
@@ -346,15 +346,24 @@ def assemble_jacobian(pattern: CoupledPattern, *, blocks, g_values, gt_values, w
         if v.shape != slots.shape:
             raise InputError(f"{name} has {v.size} entries, the pattern {slots.size}", key=name)
         _scatter(data, slots, v)
+    J = sp.csr_matrix((data, p.indices, p.indptr), shape=(p.n, p.n), copy=False)
     if crack is not None:
-        dRk = np.ascontiguousarray(crack[0], dtype=np.float64)
-        cell = np.ascontiguousarray(crack[1], dtype=np.int64)
-        dkdu = np.ascontiguousarray(crack[2], dtype=np.float64)
-        if (dRk.shape != (p.crack_slots.shape[0],) or cell.shape != dRk.shape
-                or dkdu.shape != (nc, 6)):
-            raise InputError("crack entries do not match the pattern", key="crack")
-        _crack_block(data, p.crack_slots, dRk, cell, dkdu)
-    return sp.csr_matrix((data, p.indices, p.indptr), shape=(p.n, p.n), copy=False)
+        add_crack_block(J, p, crack)
+    return J
+
+
+def add_crack_block(J: sp.csr_matrix, pattern: CoupledPattern, crack) -> None:
+    """Add ``dR/dk dk/du`` to ``J`` (assembled on ``pattern``) in place; ``crack`` is
+    ``(dRk, cell, dkdu)`` as in :func:`assemble_jacobian`."""
+    p = pattern
+    nc = len(p.g_slots) // 6
+    dRk = np.ascontiguousarray(crack[0], dtype=np.float64)
+    cell = np.ascontiguousarray(crack[1], dtype=np.int64)
+    dkdu = np.ascontiguousarray(crack[2], dtype=np.float64)
+    if (dRk.shape != (p.crack_slots.shape[0],) or cell.shape != dRk.shape
+            or dkdu.shape != (nc, 6) or J.nnz != p.nnz):
+        raise InputError("crack entries do not match the pattern", key="crack")
+    _crack_block(J.data, p.crack_slots, dRk, cell, dkdu)
 
 
 def hold_rows(J: sp.csr_matrix, pattern: CoupledPattern, rows, diagonal: float) -> None:

@@ -604,6 +604,9 @@ class MDEMEngine:
         pred = self.stepper.predictor_history    # what the next step extrapolates from
         if pred is not None:
             out["pred.t"], out["pred.x"] = np.array(pred[0]), pred[1]
+        # the linear solver's memory (orderings, the factor it reuses)
+        for k, v in self.stepper.linear_solver.state().items():
+            out[f"linear.{k}"] = v
         scal = {
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
@@ -640,6 +643,9 @@ class MDEMEngine:
         self.stepper.state = st
         if "pred.x" in arr:
             self.stepper.predictor_history = (float(arr["pred.t"]), arr["pred.x"])
+        lin = {k[len("linear."):]: v for k, v in arr.items() if k.startswith("linear.")}
+        if lin:
+            self.stepper.linear_solver.restore(lin, self.cm.layout.pattern)
         self.stepper.counters = CoupledCounters(**scal["counters"])
         self._m_intact0 = arr["m_intact0"]
         self._rows = {k: arr[f"row.{k}"].astype(float).tolist() for k in _ROW_KEYS}

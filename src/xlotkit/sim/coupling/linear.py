@@ -9,19 +9,20 @@ SuperLU. Two things are reused:
 * **the ordering**: the fill-reducing column ordering (minimum degree on ``A + A^T``,
   diagonal pivots preferred; the coupled matrix is structurally symmetric) depends only on
   the sparsity pattern, which stays the same object while no cluster fails
-  (:class:`~xlotkit.sim.coupling.assembly.CoupledPattern`). It is computed once per pattern
-  (on a diagonally dominant matrix of that pattern, so that it is a function of the pattern
-  alone) and every factorisation on the pattern factors the symmetrically permuted matrix
-  in its natural order; SciPy's SuperLU does not expose its symbolic analysis, so this is
-  how the ordering is reused;
-* **the numeric factor**: while the contact statuses (the active set) the Jacobian was
-  linearised with are unchanged, the next Newton iterations solve with GMRES
+  (:class:`~xlotkit.sim.coupling.assembly.CoupledPattern`). It is the column ordering
+  SuperLU computes at the first factorisation on a pattern (a function of the structure
+  alone) and every later factorisation on the pattern factors the symmetrically permuted
+  matrix in its natural order; SciPy's SuperLU does not expose its symbolic analysis, so
+  this is how the ordering is reused;
+* **the numeric factor**: while the pattern holds and the contact statuses (the active
+  set) the Jacobian was linearised with are the same or nearly (a few contacts changed),
+  the next solves, in this Newton iteration and the next steps, use GMRES
   right-preconditioned by the last factor (:class:`LinearSolver`); within an active set the
-  Jacobian changes only smoothly (fluid density, crack permeability), so a few Krylov
-  iterations reach the same accuracy as a direct solve. When GMRES does not converge
-  within its budget, or is converging too slowly to, the matrix is factored afresh. The
-  factor is dropped at :meth:`LinearSolver.reset` (the stepper does so at every step), so
-  a step's numbers never depend on the steps before it: a resumed run repeats an
+  Jacobian changes only smoothly (fluid density, crack permeability, the step length), so
+  a few Krylov iterations reach the accuracy the Newton asks for. When GMRES does not
+  converge within its budget, or is converging too slowly to, the matrix is factored
+  afresh. What the solver remembers (orderings, the factored matrix) is part of the
+  engine's checkpoint (:meth:`LinearSolver.state`), so a resumed run repeats an
   uninterrupted one bit for bit.
 
 Safeguards kept from the direct solve: a solve is accepted only with a scaled residual
@@ -173,10 +174,11 @@ class _Factor:
     """An equilibrated LU of a (permuted) matrix and how to apply its inverse."""
 
     def __init__(self, lu, A: sp.csc_matrix, r: np.ndarray, c: np.ndarray,
-                 q: np.ndarray | None, pattern, status, variant) -> None:
-        self.lu, self.A, self.pattern = lu, A, pattern
+                 q: np.ndarray | None, key: bytes, status, variant, spec: str) -> None:
+        self.lu, self.A, self.key, self.spec = lu, A, key, spec
         self.status, self.variant = status, variant
         self.q = q
+        self.r_factored, self.c_factored = r, c
         if q is None:
             self.r, self.c = r, c
         else:
@@ -207,7 +209,8 @@ class LinearSolver:
         GMRES iterations allowed with a reused factor before factoring afresh; 0 never
         reuses the factor (every solve factors).
     krylov_rtol : float
-        Scaled residual GMRES must reach (default :data:`SOLVE_RTOL`, the direct solve's).
+        Scaled residual GMRES must reach by default (:data:`SOLVE_RTOL`, the direct
+        solve's).
     max_changes : int
         Contacts whose status may differ from the factored Jacobian's for the factor to
         be tried: each changes the tangent by a rank-2 term, which GMRES resolves in about
@@ -218,6 +221,12 @@ class LinearSolver:
     Attributes
     ----------
     stats : LinearStats
+
+    Notes
+    -----
+    What a solve does depends on what was solved before (the factor and the orderings
+    kept), never on anything else: :meth:`state` and :meth:`restore` carry that across a
+    checkpoint, so a resumed run repeats an uninterrupted one bit for bit.
     """
 
     def __init__(self, krylov_iterations: int = 12, krylov_rtol: float = SOLVE_RTOL,
@@ -233,21 +242,23 @@ class LinearSolver:
         self.max_changes = int(max_changes)
         self.max_orderings = int(max_orderings)
         self.stats = LinearStats()
-        self._orderings: dict[bytes, _Ordering] = {}
-        self._fresh: set[bytes] = set()
+        self._orderings: dict[bytes, tuple[np.ndarray, _Ordering]] = {}
         self._factor: _Factor | None = None
 
     def reset(self) -> None:
-        """Start afresh: drop the numeric factor, and factor the first matrix on each
-        pattern with the ordering computed for it (the orderings kept are used from the
-        second factorisation on). The numbers after a reset then do not depend on what
-        was solved before it."""
+        """Forget the factor and the orderings: the next solves are those of a new
+        solver."""
         self._factor = None
-        self._fresh = set()
+        self._orderings = {}
+
+    @staticmethod
+    def _key(pattern) -> bytes:
+        # a pattern is a function of its crack cells (and the model): they identify it
+        return pattern.crack_cells.tobytes() + np.int64(pattern.nnz).tobytes()
 
     # ------------------------------------------------------------------ solve
     def solve(self, J: sp.spmatrix, rhs: np.ndarray, pattern=None, status=None,
-              variant=None) -> np.ndarray:
+              variant=None, rtol: float | None = None) -> np.ndarray:
         """Solve ``J x = rhs``.
 
         Parameters
@@ -263,6 +274,10 @@ class LinearSolver:
         variant : hashable, optional
             Anything else the linearisation depends on (softened contacts): the factor
             is reused only for the same variant.
+        rtol : float, optional
+            Scaled residual a GMRES solve must reach (default ``krylov_rtol``): an
+            inexact Newton step far from the solution needs no more than a fraction of
+            the residual it corrects. A factorisation solves to round-off regardless.
 
         Raises
         ------
@@ -274,25 +289,24 @@ class LinearSolver:
             raise InputError(f"J {J.shape} and rhs {rhs.shape} do not match", key="rhs")
         self.stats.solves += 1
         f = self._factor
-        if (f is not None and self.krylov_iterations > 0 and pattern is not None
-                and f.pattern is pattern and f.variant == variant
-                and self._close(f.status, status)):
-            x = self._gmres(J, rhs, f)
+        key = None if pattern is None else self._key(pattern)
+        if (f is not None and self.krylov_iterations > 0 and key is not None
+                and f.key == key and f.variant == variant and self._close(f.status, status)):
+            x = self._gmres(J, rhs, f, self.krylov_rtol if rtol is None
+                            else min(max(float(rtol), self.krylov_rtol), 1e-2))
             if x is not None:
                 return x
-        return self._factor_and_solve(J, rhs, pattern, status, variant)
+        return self._factor_and_solve(J, rhs, pattern, key, status, variant)
 
     def _close(self, a, b) -> bool:
         if a is None or b is None:
             return a is None and b is None
         return a.shape == b.shape and int(np.count_nonzero(a != b)) <= self.max_changes
 
-    def _factor_and_solve(self, J, rhs, pattern, status, variant) -> np.ndarray:
+    def _factor_and_solve(self, J, rhs, pattern, key, status, variant) -> np.ndarray:
         t0 = time.perf_counter()
         try:
-            key = None if pattern is None else (pattern.crack_cells.tobytes()
-                                                + np.int64(pattern.nnz).tobytes())
-            o = None if key is None or key not in self._fresh else self._orderings.get(key)
+            o = None if key is None else self._orderings.get(key, (None, None))[1]
             if o is not None:
                 # the pattern's ordering: factor the permuted matrix as it stands
                 Jc = J if J.format == "csr" else J.tocsr()
@@ -317,21 +331,19 @@ class LinearSolver:
                     np.linalg.norm(A @ y - b) <= SOLVE_RTOL * max(np.linalg.norm(b), 1e-300))
             except RuntimeError:
                 lu, ok = None, False
-            if key is not None and lu is not None and spec != "NATURAL":
-                self._fresh.add(key)
-                if key not in self._orderings:
-                    self.stats.orderings += 1
-                    if len(self._orderings) >= self.max_orderings:
-                        self._orderings.pop(next(iter(self._orderings)))
-                    self._orderings[key] = _Ordering(pattern.indptr, pattern.indices,
-                                                     pattern.n, lu.perm_c)
+            if key is not None and lu is not None and o is None:
+                # the ordering SuperLU computed for the pattern (structure only)
+                self._remember(key, pattern.crack_cells,
+                               _Ordering(pattern.indptr, pattern.indices, pattern.n,
+                                         lu.perm_c))
             if not ok:
                 # the diagonal pivots were poor: default ordering, partial pivoting
                 self.stats.fallbacks += 1
+                spec = "DEFAULT"
                 lu = spla.splu(A)
                 y = lu.solve(b)
-            if pattern is not None:
-                self._factor = _Factor(lu, A, r, c, q, pattern, status, variant)
+            if key is not None:
+                self._factor = _Factor(lu, A, r, c, q, key, status, variant, spec)
             x = c * y
             if q is not None:
                 out = np.empty_like(x)
@@ -341,7 +353,74 @@ class LinearSolver:
         finally:
             self.stats.factor_time += time.perf_counter() - t0
 
-    def _gmres(self, J, rhs, f: _Factor) -> np.ndarray | None:
+    def _remember(self, key: bytes, crack_cells: np.ndarray, o: _Ordering) -> None:
+        self.stats.orderings += 1
+        if len(self._orderings) >= self.max_orderings:
+            self._orderings.pop(next(iter(self._orderings)))
+        self._orderings[key] = (np.array(crack_cells, dtype=bool), o)
+
+    # ------------------------------------------------------------------ checkpoint
+    def state(self) -> dict[str, np.ndarray]:
+        """The solver's memory as arrays (a checkpoint): the orderings kept (their
+        patterns' crack cells and permutations) and the factored matrix with what it was
+        linearised with. :meth:`restore` rebuilds the same factor from them."""
+        out: dict[str, np.ndarray] = {"n_orderings": np.array(len(self._orderings))}
+        for i, (cells, o) in enumerate(self._orderings.values()):
+            out[f"ordering{i}.cells"] = cells
+            out[f"ordering{i}.q"] = o.q
+            out[f"ordering{i}.nnz"] = np.array(o.nnz)
+        f = self._factor
+        if f is not None:
+            out.update({
+                "factor.key": np.frombuffer(f.key, dtype=np.uint8).copy(),
+                "factor.data": f.A.data, "factor.indices": f.A.indices,
+                "factor.indptr": f.A.indptr,
+                "factor.r": f.r_factored, "factor.c": f.c_factored,
+                "factor.q": np.zeros(0, np.int64) if f.q is None else f.q,
+                "factor.has_q": np.array(f.q is not None),
+                "factor.spec": np.array(["NATURAL", "MMD_AT_PLUS_A", "DEFAULT"].index(f.spec)),
+                "factor.has_status": np.array(f.status is not None),
+                "factor.status": np.zeros(0, np.int64) if f.status is None else f.status,
+                "factor.variant": (np.zeros(0, np.uint8) if f.variant is None
+                                   else np.frombuffer(f.variant, dtype=np.uint8).copy()),
+                "factor.has_variant": np.array(f.variant is not None)})
+        return out
+
+    def restore(self, state, pattern_of) -> None:
+        """Continue from :meth:`state`; ``pattern_of(crack_cells)`` gives the pattern of
+        a set of crack cells (``CoupledLayout.pattern``)."""
+        self.reset()
+        for i in range(int(state["n_orderings"])):
+            cells = np.asarray(state[f"ordering{i}.cells"], dtype=bool)
+            pat = pattern_of(cells)
+            if pat.nnz != int(state[f"ordering{i}.nnz"]):
+                raise InputError("the checkpoint's solver state does not fit the model",
+                                 key="checkpoint")
+            q = np.asarray(state[f"ordering{i}.q"], dtype=np.int64)
+            perm_c = np.empty_like(q)
+            perm_c[q] = np.arange(len(q))
+            o = _Ordering(pat.indptr, pat.indices, pat.n, perm_c)
+            self._orderings[self._key(pat)] = (cells.copy(), o)
+        if "factor.data" not in state:
+            return
+        A = sp.csc_matrix((np.asarray(state["factor.data"], dtype=float),
+                           np.asarray(state["factor.indices"]),
+                           np.asarray(state["factor.indptr"])))
+        spec = ["NATURAL", "MMD_AT_PLUS_A", "DEFAULT"][int(state["factor.spec"])]
+        lu = spla.splu(A) if spec == "DEFAULT" else spla.splu(A, permc_spec=spec,
+                                                               **_LU_OPTIONS)
+        q = (np.asarray(state["factor.q"], dtype=np.int64)
+             if bool(state["factor.has_q"]) else None)
+        self._factor = _Factor(
+            lu, A, np.asarray(state["factor.r"], dtype=float),
+            np.asarray(state["factor.c"], dtype=float), q,
+            np.asarray(state["factor.key"], dtype=np.uint8).tobytes(),
+            np.asarray(state["factor.status"], dtype=np.int64)
+            if bool(state["factor.has_status"]) else None,
+            np.asarray(state["factor.variant"], dtype=np.uint8).tobytes()
+            if bool(state["factor.has_variant"]) else None, spec)
+
+    def _gmres(self, J, rhs, f: _Factor, rtol: float) -> np.ndarray | None:
         """GMRES on the row-scaled system ``R J x = R rhs``, right-preconditioned by the
         factor ``f`` (``x = J_f^{-1} R^{-1} w``); None when it does not reach the
         tolerance within the budget (or is converging too slowly to)."""
@@ -353,7 +432,7 @@ class LinearSolver:
             if beta == 0.0:
                 return np.zeros_like(rhs)
             kmax = self.krylov_iterations
-            tol = self.krylov_rtol * beta
+            tol = rtol * beta
             n = len(rhs)
             V = np.empty((kmax + 1, n))
             Z = np.empty((kmax, n))
@@ -391,7 +470,7 @@ class LinearSolver:
                     break
                 # converging too slowly to reach the tolerance within the budget (at
                 # its rate so far, with a margin of 100): the factor is stale
-                if j >= 2 and (res / beta) ** (kmax / (j + 1)) > 100.0 * self.krylov_rtol:
+                if j >= 2 and (res / beta) ** (kmax / (j + 1)) > 100.0 * rtol:
                     break
                 V[j + 1] = w / hn
             if k == 0:

@@ -58,7 +58,7 @@ stresses returned compression positive.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -68,6 +68,7 @@ from xlotkit.errors import InputError
 from xlotkit.sim.coupling.assembly import (
     CoupledLayout,
     CoupledPattern,
+    add_crack_block,
     assemble_jacobian,
     cluster_forces,
     hold_rows,
@@ -150,6 +151,17 @@ def boundary_load(mesh: Mesh, tags, stress) -> np.ndarray:
         raise InputError("stress must be a scalar or 2x2", key="stress")
     sel = np.isin(mesh.boundary_tags, np.atleast_1d(np.asarray(tags, dtype=np.int64)))
     return edge_traction_load(mesh.nodes, mesh.boundary_edges[sel], -S)
+
+
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a 1D array (the mean of the two middle values for an even
+    length), by partition: the same number without numpy's general-purpose overhead."""
+    n = len(a)
+    h = n // 2
+    if n % 2:
+        return float(np.partition(a, h)[h])
+    q = np.partition(a, (h - 1, h))
+    return float(0.5 * (q[h - 1] + q[h]))
 
 
 # --------------------------------------------------------------------------- state
@@ -733,10 +745,7 @@ class CoupledModel:
                         if self.hole_volume_change else np.zeros(len(wr)))
             crack = None
             if permeability_derivative and not undrained and np.any(dk_dw > 0):
-                # dk/du = dk/dw_n b_n of the contact giving the opening
-                dkdu = dk_dw[:, None] * mech.bn_c[np.arange(m), act, :]
-                crack = (self.flow.permeability_derivative_values(it.flow, k),
-                         self.layout.permeability_cells, dkdu)
+                crack = self._crack_entries(it.flow, k, dk_dw, act)
             J = assemble_jacobian(
                 pattern, blocks=blocks, g_values=-coef[:, None] * self._g,
                 gt_values=(rho_dt * self.height * coef)[:, None] * self._g,
@@ -749,7 +758,7 @@ class CoupledModel:
             # as the mechanics does
             if failed.any():
                 kd = J.data[pattern.diag_slots]
-                med = float(np.median(kd))
+                med = _median(kd)
                 floating = kd < 1e-6 * med
                 if floating.any():
                     hold_rows(J, pattern, floating, med)
@@ -757,13 +766,41 @@ class CoupledModel:
         elif failed.any():
             # the residual alone: the same floating rows (from the diagonal of K only)
             kd = self._k_diagonal(cs, status, sgn, soft)
-            floating = kd < 1e-6 * float(np.median(kd))
+            floating = kd < 1e-6 * _median(kd)
             if floating.any():
                 Ru = np.where(floating, 0.0, Ru)
         R = np.concatenate([Ru, fr.residual])
         mass_scale = fr.throughput + self._gross_storage(it, old) / dt
         return CoupledResidual(R, J, force_scale, mass_scale, fr, it,
                                (Fn, Fs, status, Un, Us), k, pattern, status)
+
+    def _crack_entries(self, flow_state, k, dk_dw, act) -> tuple:
+        """``(dR/dk entries, their cells, dk/du)`` of the crack block: ``dk/du = dk/dw_n
+        b_n`` of the contact giving the opening."""
+        m = self.n_cells
+        dkdu = dk_dw[:, None] * self.mechanics.bn_c[np.arange(m), act, :]
+        return (self.flow.permeability_derivative_values(flow_state, k),
+                self.layout.permeability_cells, dkdu)
+
+    def with_permeability_derivative(self, res: CoupledResidual,
+                                     structure: Structure) -> CoupledResidual:
+        """``res`` (a drained evaluation with the lagged-permeability Jacobian) with the
+        crack block ``dR/dk dk/du`` added to its Jacobian: what
+        :meth:`residual_and_jacobian` with ``permeability_derivative=True`` gives at the
+        same iterate, without evaluating it again."""
+        if res.jacobian is None or res.pattern is None:
+            raise InputError("needs a residual with its Jacobian", key="res")
+        cs = np.asarray(structure.cluster_state)
+        failed = cs != INTACT
+        Un = res.response[3]
+        gap = np.where(failed[:, None],
+                       np.maximum(Un - np.asarray(structure.ref_normal), 0.0), 0.0)
+        k, dk_dw, _, act = self.crack_permeability(cs, gap, structure.slip)
+        if not np.any(dk_dw > 0):
+            return res
+        J = res.jacobian.copy()
+        add_crack_block(J, res.pattern, self._crack_entries(res.state.flow, k, dk_dw, act))
+        return replace(res, jacobian=J)
 
     def _k_diagonal(self, cs, status, sgn, soft) -> np.ndarray:
         """Diagonal of the mechanics tangent on the displacement unknowns."""

@@ -54,6 +54,13 @@ __all__ = ["NewtonResult", "NewtonSolve", "State", "branch_violation", "equilibr
            "forces_converged", "law_status", "mass_floor", "scaled_norms"]
 
 
+#: Forcing term of the inexact Newton: a Krylov solve reduces the (equilibrated) linearised
+#: residual to this fraction of the square root of the present merit...
+KRYLOV_FORCING = 1e-2
+#: ... and at least to this (the direct solve's 1e-10 is the floor).
+KRYLOV_RTOL_MAX = 1e-6
+
+
 class State(enum.Enum):
     """The states of one pass of :meth:`NewtonSolve.run` (module docstring)."""
 
@@ -430,7 +437,9 @@ class NewtonSolve:
                                 or (lag > 0 and self.its >= 6 and rf > 0.5 * self.rfs[-4])):
             self.full_k = True
             self.since = 0
-            res = self.res = self._evaluate(self.x, self.frz)
+            # the same iterate and residual; its Jacobian gains the crack block
+            if not self.undrained:      # (undrained: no flow, no crack block)
+                res = self.res = self.model.with_permeability_derivative(res, self.st)
         status = res.response[2]
         if self.prev_status is not None:
             self.flips = self.flips + (status != self.prev_status)
@@ -469,10 +478,16 @@ class NewtonSolve:
         t0 = time.perf_counter()
         # the factor is reused while the pattern holds and the contact statuses the
         # Jacobian was linearised with are (nearly) the same (softened contacts alike)
+        # inexact Newton: a Krylov solve need reduce the linearised residual only to a
+        # fraction of the present scaled residual (KRYLOV_FORCING of it, at most
+        # KRYLOV_RTOL_MAX), which keeps the convergence quadratic
+        rtol = (min(KRYLOV_FORCING * math.sqrt(self.merit), KRYLOV_RTOL_MAX)
+                if math.isfinite(self.merit) else None)
         try:
             dx = self.solver.solve(res.jacobian, -self.R, pattern=res.pattern,
                                    status=res.status,
-                                   variant=None if self.soft is None else self.soft.tobytes())
+                                   variant=None if self.soft is None else self.soft.tobytes(),
+                                   rtol=rtol)
         except RuntimeError:
             self.counters.linear_solve_time += time.perf_counter() - t0
             return self._fail("newton: singular")

@@ -417,8 +417,8 @@ class CoupledStepper:
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
         self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
-        # the Newton's linear solver: orderings kept per pattern, the factor reused within
-        # a step (dropped at every step, so no step depends on an earlier one's factor)
+        # the Newton's linear solver: orderings kept per pattern, the last factor reused
+        # (its memory is part of a checkpoint: LinearSolver.state)
         self.linear_solver = LinearSolver()
         # the last accepted transitions (t_prev, x_prev, state): the predictor of a step
         # from `state` extrapolates from (t_prev, x_prev)
@@ -613,7 +613,6 @@ class CoupledStepper:
         old = self.state
         st = model.structure_of(old)
         x = model.x_of(old)
-        self.linear_solver.reset()
         if not undrained:
             x = self._extrapolate(x, old, dt, st)
         t_new = old.t if undrained else old.t + dt
