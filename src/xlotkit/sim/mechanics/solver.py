@@ -589,7 +589,10 @@ class MechanicsModel:
         """After a converged step: move shear references by the frictional slip."""
         Fn, Fs, status, Un, Us = resp
         failed = (cstate != INTACT)[:, None]
-        new_ref = np.where(status == OPEN, Us, Us - Fs / self.ks)
+        # a sticking contact keeps its reference (Us - Fs/ks is it, up to the round-off
+        # that would otherwise accumulate as spurious slip)
+        new_ref = np.where(status == OPEN, Us,
+                           np.where(status == STICK, ref_s, Us - Fs / self.ks))
         new_ref = np.where(failed, new_ref, ref_s)
         dslip = np.where(failed & (status != OPEN), new_ref - ref_s, 0.0)
         return new_ref, slip + np.abs(dslip)
