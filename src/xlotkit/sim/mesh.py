@@ -27,6 +27,7 @@ smoothing sweeps even the node spacing. Everything is deterministic for a given 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -162,10 +163,11 @@ class Mesh:
         d2 = p[:, 2] - p[:, 0]
         return 0.5 * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
 
-    @property
+    @functools.cached_property
     def centroids(self) -> np.ndarray:
-        """Triangle centroids [m], shape (m, 2)."""
-        return self.nodes[self.triangles].mean(axis=1)
+        """Triangle centroids [m], shape (m, 2) (read-only; computed once: the crack-front
+        searches ask for them after every converged step)."""
+        return _frozen(self.nodes[self.triangles].mean(axis=1))
 
     @property
     def hole_edges(self) -> np.ndarray:

@@ -58,13 +58,21 @@ stresses returned compression positive.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 
 from xlotkit.errors import InputError
+from xlotkit.sim.coupling.assembly import (
+    CoupledLayout,
+    CoupledPattern,
+    add_crack_block,
+    assemble_jacobian,
+    cluster_forces,
+    hold_rows,
+)
 from xlotkit.sim.flow import FlowModel, FlowState
 from xlotkit.sim.flow.fracture import (
     cluster_length_scale,
@@ -83,10 +91,7 @@ from xlotkit.sim.mechanics import (
     MechanicsModel,
     MechanicsState,
 )
-from xlotkit.sim.mechanics.assembly import (
-    assemble_vector,
-    edge_traction_load,
-)
+from xlotkit.sim.mechanics.assembly import edge_traction_load
 from xlotkit.sim.mechanics.mdem import cst_b_matrix
 from xlotkit.sim.mesh import Mesh
 
@@ -148,31 +153,15 @@ def boundary_load(mesh: Mesh, tags, stress) -> np.ndarray:
     return edge_traction_load(mesh.nodes, mesh.boundary_edges[sel], -S)
 
 
-class _BlockAssembler:
-    """Sums cluster blocks (n_c, 6, 6) into a CSR matrix of a fixed sparsity pattern.
-
-    The pattern (the cluster DOFs mapped to the reduced unknowns, ``-1`` dropped) is
-    sorted once; each assembly is one weighted ``bincount`` into the data array instead
-    of a COO -> CSR conversion (which sorted the same indices at every Newton iteration).
-    """
-
-    def __init__(self, dofs: np.ndarray, index: np.ndarray, n: int) -> None:
-        rows = index[np.repeat(dofs, 6, axis=1).ravel()]
-        cols = index[np.tile(dofs, (1, 6)).ravel()]
-        self._ok = (rows >= 0) & (cols >= 0)
-        key = rows[self._ok] * np.int64(n) + cols[self._ok]
-        uniq, self._slot = np.unique(key, return_inverse=True)
-        self._indices = (uniq % n).astype(np.int32)
-        counts = np.bincount(uniq // n, minlength=n)
-        self._indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
-        self._nnz = len(uniq)
-        self.n = n
-
-    def __call__(self, blocks: np.ndarray) -> sp.csr_matrix:
-        data = np.bincount(self._slot, weights=np.asarray(blocks).ravel()[self._ok],
-                           minlength=self._nnz)
-        return sp.csr_matrix((data, self._indices.copy(), self._indptr.copy()),
-                             shape=(self.n, self.n))
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a 1D array (the mean of the two middle values for an even
+    length), by partition: the same number without numpy's general-purpose overhead."""
+    n = len(a)
+    h = n // 2
+    if n % 2:
+        return float(np.partition(a, h)[h])
+    q = np.partition(a, (h - 1, h))
+    return float(0.5 * (q[h - 1] + q[h]))
 
 
 # --------------------------------------------------------------------------- state
@@ -296,7 +285,8 @@ class CoupledResidual:
     ----------
     residual : ndarray (n_u + m + 1,)
         ``(R_u [N/m], R_f [kg/s], R_w [kg/s])``.
-    jacobian : scipy.sparse.csr_matrix
+    jacobian : scipy.sparse.csr_matrix or None
+        None for a residual-only evaluation (:meth:`CoupledModel.residual`).
     force_scale : float
         Scale of the mechanical terms [N/m] for the relative tolerance.
     mass_scale : float
@@ -312,16 +302,23 @@ class CoupledResidual:
         ``(Fn, Fs, status, Un, Us)`` of the contacts at the iterate.
     permeability : ndarray (m,) [m^2]
         Cell permeabilities used.
+    pattern : CoupledPattern or None
+        The sparsity pattern the Jacobian is stored on (the same object while the failed
+        clusters are the same: the linear solver reuses its ordering on it).
+    status : ndarray of int (m, 3) or None
+        Contact statuses the Jacobian was linearised with (held branches included).
     """
 
     residual: np.ndarray
-    jacobian: sp.csr_matrix
+    jacobian: sp.csr_matrix | None
     force_scale: float
     mass_scale: float
     flow: object
     state: CoupledState
     response: tuple
     permeability: np.ndarray
+    pattern: CoupledPattern | None = None
+    status: np.ndarray | None = None
 
 
 # --------------------------------------------------------------------------- model
@@ -456,8 +453,7 @@ class CoupledModel:
         # reduced unknown of every mechanics DOF (-1: held), for the tangent assembly
         unknown = -np.ones(n_dof, dtype=np.int64)
         unknown[self.free_dofs] = np.arange(len(self.free_dofs))
-        self._assemble_k = _BlockAssembler(np.asarray(mechanics.dofs, dtype=np.int64),
-                                           unknown, len(self.free_dofs))
+        self._unknown = unknown
         self._g_cache: tuple[bytes, sp.csr_matrix] | None = None
         self.n_u = len(self.free_dofs)
         self.n_cells = mesh.n_triangles
@@ -486,6 +482,12 @@ class CoupledModel:
                                                          np.repeat(np.arange(nc), 6))),
                                      shape=(n_dof, nc))[self.free_dofs].tocsr()
         self.f_wall = np.asarray(mechanics.f_wall, dtype=float)[self.free_dofs]
+        # where every entry of the Jacobian goes (the pattern per set of failed clusters)
+        self.layout = CoupledLayout(
+            dofs, unknown, self.n_u, self.f_wall, flow.jacobian_triplets,
+            flow.permeability_triplets,
+            well_row_permeability=flow.has_well and not flow.well.pressure_controlled)
+        self._wall_rows = self.layout.wall_rows
 
     # ---------------------------------------------------------------- setup
     def initial_state(self, mechanics_state: MechanicsState | None = None,
@@ -566,8 +568,10 @@ class CoupledModel:
         u[self.free_dofs] = x[:nu]
         du = x[:nu] - self.u0[self.free_dofs]
         cs = self._cs0 if st is None else st.cluster_state
-        G = self.pressure_operator(cs)
-        vx = -self.height * (G.T @ du)
+        du_full = np.zeros(self.mechanics.n_dof)
+        du_full[self.free_dofs] = du
+        gdu = np.einsum("ci,ci->c", self._g, du_full[self.mechanics.dofs])
+        vx = self.height * self.coefficients(cs) * gdu
         if st is not None:
             vx = vx + st.volume_offset
         vw = self.height * float(self.f_wall @ du) if self.hole_volume_change else 0.0
@@ -665,7 +669,27 @@ class CoupledModel:
             force ``sign mu (-F_n)``) whatever the trial forces, in the residual and the
             tangent alike. Where the iterate lies on that branch this is the exact law;
             elsewhere it is its linear continuation (active-set inner solve).
+
+        Notes
+        -----
+        The Jacobian is summed into the fixed sparsity pattern of the present failed
+        clusters (:mod:`xlotkit.sim.coupling.assembly`), so its structure is the same
+        object from one iterate to the next while no cluster fails.
         """
+        return self._evaluate(x, old, dt, undrained, structure, soft,
+                              permeability_derivative, frozen, True)
+
+    def residual(self, x: np.ndarray, old: CoupledState, dt: float,
+                 undrained: bool = False, structure: Structure | None = None,
+                 soft: np.ndarray | None = None,
+                 frozen: tuple | None = None) -> CoupledResidual:
+        """The residual alone at ``x`` (``jacobian`` None): what a line search's trial
+        point needs. Same arguments and the same residual, scales, state and contact
+        response as :meth:`residual_and_jacobian`."""
+        return self._evaluate(x, old, dt, undrained, structure, soft, False, frozen, False)
+
+    def _evaluate(self, x, old, dt, undrained, structure, soft, permeability_derivative,
+                  frozen, jacobian: bool) -> CoupledResidual:
         self._require_init()
         mech = self.mechanics
         nu, m = self.n_u, self.n_cells
@@ -680,20 +704,16 @@ class CoupledModel:
         du_full = u.reshape(-1) - self.u0
         dp = p - self.p0
         dpw = x[nu + m] - self.pw0
+        ref_n = np.asarray(st.ref_normal)
         Fn, Fs, status, sgn, f_c, Un, Us = mech._response(
-            u, cs, np.asarray(st.ref_normal), np.asarray(st.ref_shear), p)
-        if frozen is not None:
-            Fn, Fs, status, sgn, f_c = self._frozen_law(frozen, failed, st, p, Fn, Fs,
-                                                        status, sgn, f_c, Un, Us)
-        duc = du_full[mech.dofs]
+            u, cs, ref_n, np.asarray(st.ref_shear), p, frozen=frozen)
         coef = self.coefficients(cs)
-        lin = np.einsum("cij,cj->ci", mech.k_intact, duc) - (coef * dp)[:, None] * self._g
-        df = np.where(failed[:, None], f_c - self._fc0, lin)
-        fint = assemble_vector(df, mech.dofs, mech.n_dof)[self.free_dofs]
+        fint, fabs, _ = cluster_forces(mech.dofs, du_full, failed, f_c, self._fc0,
+                                       mech.k_intact, coef, dp, self._g, mech.n_dof)
+        fint = fint[self.free_dofs]
         Lf = load[self.free_dofs]
         Ru = fint - self.f_wall * dpw - Lf
-        fabs = assemble_vector(np.abs(df), mech.dofs, mech.n_dof)[self.free_dofs]
-        force_scale = max(float(np.max(fabs, initial=0.0)),
+        force_scale = max(float(np.max(fabs[self.free_dofs], initial=0.0)),
                           float(np.max(np.abs(self.f_wall), initial=0.0)) * abs(dpw),
                           float(np.max(np.abs(Lf), initial=0.0)), 1e-300)
         if failed.any():
@@ -702,13 +722,8 @@ class CoupledModel:
             # tolerance is 1e-14 of the absolute forces, a few ulps of the sums)
             force_scale = max(force_scale,
                               1e-4 * float(np.max(np.abs(self._fc0[failed]))))
-        # mechanics tangent for the current statuses
-        blocks = mech._tangent_blocks(cs, status, sgn, soft)
-        K = self._assemble_k(blocks)
-        G = self.pressure_operator(cs)
-        dV_du = (-self.height * G.T).tocsr()
         # fracture permeability
-        gap = np.where(failed[:, None], np.maximum(Un - np.asarray(st.ref_normal), 0.0), 0.0)
+        gap = np.where(failed[:, None], np.maximum(Un - ref_n, 0.0), 0.0)
         k, dk_dw, wn, act = self.crack_permeability(cs, gap, st.slip)
         kw: dict = dict(permeability=k, well_storage=self.well_storage)
         if undrained:
@@ -716,70 +731,84 @@ class CoupledModel:
         elif self.well_rate is not None:
             q = self.well_rate(old.t + 0.5 * dt, float(x[nu + m]))
             kw["well_rate"] = (float(q), 0.0) if np.ndim(q) == 0 else tuple(map(float, q))
-        fr = self.flow.residual_and_jacobian(it.flow, old.flow, dt, **kw)
-        rho_dt = np.asarray(fr.d_residual_d_extra_volume)
-        Cfu = sp.diags(rho_dt) @ dV_du
-        if permeability_derivative and not undrained and np.any(dk_dw > 0):
-            cells = np.flatnonzero(dk_dw > 0)
-            rows = np.repeat(cells, 6)
-            vals = (dk_dw[cells, None] * mech.bn_c[cells, act[cells], :]).ravel()
-            colsf = mech.dofs[cells].ravel()
-            red = -np.ones(mech.n_dof, dtype=np.int64)
-            red[self.free_dofs] = np.arange(nu)
-            cols = red[colsf]
-            ok = cols >= 0
-            dk_du = sp.csr_matrix((vals[ok], (rows[ok], cols[ok])), shape=(m, nu))
-            dRk = self.flow.d_residual_d_permeability(it.flow, k)
-            Ck = (dRk @ dk_du).tocsr()
-            Cfu_full = sp.vstack([Cfu, sp.csr_matrix((1, nu))]).tocsr() + Ck
-        else:
-            Cfu_full = sp.vstack([Cfu, sp.csr_matrix((1, nu))]).tocsr()
-        if self.hole_volume_change and fr.d_residual_d_well_volume != 0.0:
-            wrow = sp.csr_matrix((fr.d_residual_d_well_volume * self.height * self.f_wall
-                                  ).reshape(1, -1))
-            Cfu_full = Cfu_full + sp.vstack([sp.csr_matrix((m, nu)), wrow])
-        Kp = sp.hstack([G, sp.csr_matrix(-self.f_wall.reshape(-1, 1))])
-        J = sp.bmat([[K, Kp], [Cfu_full, fr.jacobian]], format="csr")
-        # floating DOFs: nodes held only by open contacts (a detached fragment between
-        # crack faces; their only stiffness is the 1e-9 regularisation of open contacts).
-        # The net fluid force on them (pressure differences between the surrounding
-        # cells) has nothing to balance it: hold them for the step, as the mechanics does
-        kd = K.diagonal()
-        floating = kd < 1e-6 * float(np.median(kd)) if failed.any() else np.zeros(nu, bool)
-        if floating.any():
-            Ru = np.where(floating, 0.0, Ru)
-            keep = np.ones(J.shape[0])
-            keep[:nu][floating] = 0.0
-            J = (sp.diags(keep) @ J + sp.diags(1.0 - keep) * float(np.median(kd))).tocsr()
+        fr = self.flow.residual_and_jacobian(it.flow, old.flow, dt,
+                                             jacobian="values" if jacobian else "none", **kw)
+        J = pattern = None
+        if jacobian:
+            # mechanics tangent for the current statuses, the coupling blocks and the
+            # flow, summed into the pattern of the present failed clusters
+            pattern = self.layout.pattern(failed)
+            blocks = mech._tangent_blocks(cs, status, sgn, soft)
+            rho_dt = np.asarray(fr.d_residual_d_extra_volume)
+            wr = self._wall_rows
+            wall_row = (fr.d_residual_d_well_volume * self.height * self.f_wall[wr]
+                        if self.hole_volume_change else np.zeros(len(wr)))
+            crack = None
+            if permeability_derivative and not undrained and np.any(dk_dw > 0):
+                crack = self._crack_entries(it.flow, k, dk_dw, act)
+            J = assemble_jacobian(
+                pattern, blocks=blocks, g_values=-coef[:, None] * self._g,
+                gt_values=(rho_dt * self.height * coef)[:, None] * self._g,
+                wall_column=-self.f_wall[wr], wall_row=wall_row,
+                flow_values=fr.jacobian_values, crack=crack)
+            # floating DOFs: nodes held only by open contacts (a detached fragment
+            # between crack faces; their only stiffness is the 1e-9 regularisation of
+            # open contacts). The net fluid force on them (pressure differences between
+            # the surrounding cells) has nothing to balance it: hold them for the step,
+            # as the mechanics does
+            if failed.any():
+                kd = J.data[pattern.diag_slots]
+                med = _median(kd)
+                floating = kd < 1e-6 * med
+                if floating.any():
+                    hold_rows(J, pattern, floating, med)
+                    Ru = np.where(floating, 0.0, Ru)
+        elif failed.any():
+            # the residual alone: the same floating rows (from the diagonal of K only)
+            kd = self._k_diagonal(cs, status, sgn, soft)
+            floating = kd < 1e-6 * _median(kd)
+            if floating.any():
+                Ru = np.where(floating, 0.0, Ru)
         R = np.concatenate([Ru, fr.residual])
         mass_scale = fr.throughput + self._gross_storage(it, old) / dt
         return CoupledResidual(R, J, force_scale, mass_scale, fr, it,
-                               (Fn, Fs, status, Un, Us), k)
+                               (Fn, Fs, status, Un, Us), k, pattern, status)
 
-    def _frozen_law(self, frozen, failed, st, p, Fn, Fs, status, sgn, f_c, Un, Us):
-        """Contact forces with the contacts of ``frozen`` held on a given branch."""
-        mask, fst, fsg = frozen
-        mask = np.asarray(mask, dtype=bool) & failed[:, None]
-        if not mask.any():
-            return Fn, Fs, status, sgn, f_c
+    def _crack_entries(self, flow_state, k, dk_dw, act) -> tuple:
+        """``(dR/dk entries, their cells, dk/du)`` of the crack block: ``dk/du = dk/dw_n
+        b_n`` of the contact giving the opening."""
+        m = self.n_cells
+        dkdu = dk_dw[:, None] * self.mechanics.bn_c[np.arange(m), act, :]
+        return (self.flow.permeability_derivative_values(flow_state, k),
+                self.layout.permeability_cells, dkdu)
+
+    def with_permeability_derivative(self, res: CoupledResidual,
+                                     structure: Structure) -> CoupledResidual:
+        """``res`` (a drained evaluation with the lagged-permeability Jacobian) with the
+        crack block ``dR/dk dk/du`` added to its Jacobian: what
+        :meth:`residual_and_jacobian` with ``permeability_derivative=True`` gives at the
+        same iterate, without evaluating it again."""
+        if res.jacobian is None or res.pattern is None:
+            raise InputError("needs a residual with its Jacobian", key="res")
+        cs = np.asarray(structure.cluster_state)
+        failed = cs != INTACT
+        Un = res.response[3]
+        gap = np.where(failed[:, None],
+                       np.maximum(Un - np.asarray(structure.ref_normal), 0.0), 0.0)
+        k, dk_dw, _, act = self.crack_permeability(cs, gap, structure.slip)
+        if not np.any(dk_dw > 0):
+            return res
+        J = res.jacobian.copy()
+        add_crack_block(J, res.pattern, self._crack_entries(res.state.flow, k, dk_dw, act))
+        return replace(res, jacobian=J)
+
+    def _k_diagonal(self, cs, status, sgn, soft) -> np.ndarray:
+        """Diagonal of the mechanics tangent on the displacement unknowns."""
         mech = self.mechanics
-        fst = np.asarray(fst)
-        trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
-        trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
-        is_open = fst == OPEN
-        Fn_f = np.where(is_open, 0.0, trial_n)
-        Fs_f = np.where(is_open, 0.0, np.where(fst == SLIP, fsg * mech.mu * (-trial_n),
-                                               trial_s))
-        Fn = np.where(mask, Fn_f, Fn)
-        Fs = np.where(mask, Fs_f, Fs)
-        status = np.where(mask, fst, status)
-        sgn = np.where(mask, fsg, sgn)
-        rows = np.flatnonzero(mask.any(axis=1))
-        f_c = f_c.copy()
-        f_c[rows] = (np.einsum("cmi,cm->ci", mech.bn_c[rows], Fn[rows])
-                     + np.einsum("cmi,cm->ci", mech.bs_c[rows], Fs[rows])
-                     - p[rows, None] * mech.g_pressure[rows])
-        return Fn, Fs, status, sgn, f_c
+        blocks = mech._tangent_blocks(cs, status, sgn, soft)
+        d = np.bincount(mech.dofs.ravel(), weights=np.einsum("cii->ci", blocks).ravel(),
+                        minlength=mech.n_dof)
+        return d[self.free_dofs]
 
     def _gross_storage(self, st: CoupledState, old: CoupledState) -> float:
         """Sum of the magnitudes of the separate storage terms of a step [kg]."""

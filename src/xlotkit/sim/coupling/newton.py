@@ -45,13 +45,20 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from xlotkit.sim.coupling.linear import LinearSolver
 from xlotkit.sim.coupling.model import CoupledResidual, Structure
 from xlotkit.sim.mechanics import OPEN, SLIP, STICK
 
 __all__ = ["NewtonResult", "NewtonSolve", "State", "branch_violation", "equilibrated_solve",
            "forces_converged", "law_status", "mass_floor", "scaled_norms"]
+
+
+#: Forcing term of the inexact Newton: a Krylov solve reduces the (equilibrated) linearised
+#: residual to this fraction of the square root of the present merit...
+KRYLOV_FORCING = 1e-2
+#: ... and at least to this (the direct solve's 1e-10 is the floor).
+KRYLOV_RTOL_MAX = 1e-6
 
 
 class State(enum.Enum):
@@ -105,11 +112,20 @@ def scaled_norms(model, res: CoupledResidual) -> tuple[float, float, float]:
         rf / max(res.mass_scale, 1e-300)) ** 2
 
 
+def _abs_row_products(J, x: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """``|J[lo:hi]| @ |x|`` of a CSR matrix, on its arrays (no sub-matrix built)."""
+    J = J if J.format == "csr" else J.tocsr()
+    a, b = int(J.indptr[lo]), int(J.indptr[hi])
+    prod = np.abs(J.data[a:b]) * np.abs(x[J.indices[a:b]])
+    rows = np.repeat(np.arange(hi - lo), np.diff(J.indptr[lo:hi + 1]))
+    return np.bincount(rows, weights=prod, minlength=hi - lo)
+
+
 def mass_floor(model, res: CoupledResidual, x: np.ndarray) -> float:
     """Round-off floor of ``sum |R_f|`` at the iterate ``x`` [kg/s]."""
     nu = model.n_u
-    Jf = abs(res.jacobian[nu:])
-    return 4.0 * np.finfo(float).eps * float(np.sum(Jf @ np.abs(x)))
+    J = res.jacobian
+    return 4.0 * np.finfo(float).eps * float(np.sum(_abs_row_products(J, x, nu, J.shape[0])))
 
 
 def forces_converged(model, control, res: CoupledResidual, x: np.ndarray, ru: float) -> bool:
@@ -127,7 +143,7 @@ def forces_converged(model, control, res: CoupledResidual, x: np.ndarray, ru: fl
         return False
     nu = model.n_u
     Ru = np.abs(res.residual[:nu])
-    floor = 4.0 * np.finfo(float).eps * (abs(res.jacobian[:nu]) @ np.abs(x))
+    floor = 4.0 * np.finfo(float).eps * _abs_row_products(res.jacobian, x, 0, nu)
     return bool(np.all(Ru <= np.maximum(control.force_rtol * res.force_scale, floor)))
 
 
@@ -139,7 +155,8 @@ def law_status(model, res: CoupledResidual, st: Structure):
     trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
     trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
     cap = mech.mu * np.maximum(-trial_n, 0.0)
-    law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) > cap, SLIP, STICK))
+    # (at the friction limit the slip branch, as the contact law's kernel says)
+    law = np.where(trial_n > 0.0, OPEN, np.where(np.abs(trial_s) >= cap, SLIP, STICK))
     return law, np.sign(trial_s)
 
 
@@ -164,38 +181,17 @@ def branch_violation(model, res: CoupledResidual, st: Structure, fstat: np.ndarr
 
 
 def equilibrated_solve(J: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
-    """Solve ``J x = rhs`` with row then column scaling by the largest entries."""
-    A = J.tocsc(copy=True)
-    A.sum_duplicates()
-    n = A.shape[0]
-    # scalings on the CSC arrays directly (the sparse-matrix products they replace cost
-    # as much as the factorisation on a few-thousand-unknown model)
-    ad = np.abs(A.data)
-    rmax = np.zeros(n)
-    np.maximum.at(rmax, A.indices, ad)
-    r = np.where(rmax > 0, 1.0 / np.where(rmax > 0, rmax, 1.0), 1.0)
-    A.data *= r[A.indices]
-    col = np.repeat(np.arange(n), np.diff(A.indptr))
-    cmax = np.zeros(n)
-    np.maximum.at(cmax, col, np.abs(A.data))
-    c = np.where(cmax > 0, 1.0 / np.where(cmax > 0, cmax, 1.0), 1.0)
-    A.data *= c[col]
-    b = r * rhs
-    # the coupled matrix is structurally symmetric (K, G / dV_du, the flow graph): a
-    # minimum-degree ordering of A + A^T with pivots preferred on the diagonal fills about
-    # half as much as the default column ordering and factors twice as fast (measured on a
-    # 3085-unknown cracked model: 15 vs 29 ms); the default is the fallback when the
-    # diagonal pivots are poor
-    try:
-        y = spla.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
-                      options={"SymmetricMode": True}).solve(b)
-        ok = np.all(np.isfinite(y)) and (np.linalg.norm(A @ y - b)
-                                         <= 1e-10 * max(np.linalg.norm(b), 1e-300))
-    except RuntimeError:
-        ok = False
-    if not ok:
-        y = spla.splu(A).solve(b)
-    return c * y
+    """Solve ``J x = rhs`` with row then column scaling by the largest entries: a fresh
+    sparse LU (minimum-degree ordering of ``A + A^T``, diagonal pivots preferred; SuperLU's
+    default ordering with partial pivoting when those pivots are poor), nothing reused
+    (:class:`~xlotkit.sim.coupling.linear.LinearSolver` without a pattern).
+
+    Raises
+    ------
+    RuntimeError
+        If the matrix is singular.
+    """
+    return LinearSolver(krylov_iterations=0).solve(J, rhs)
 
 
 # =========================================================================== the solve
@@ -221,6 +217,9 @@ class NewtonSolve:
         The cluster states of the solve.
     max_it : int, optional
         Iteration limit (default ``control.max_newton``).
+    solver : LinearSolver, optional
+        The linear solver (its ordering and factor reused across the iterations while
+        the pattern and the contact statuses hold); default a fresh one.
 
     Attributes
     ----------
@@ -229,8 +228,10 @@ class NewtonSolve:
     """
 
     def __init__(self, model, control, counters, x: np.ndarray, old, dt: float,
-                 undrained: bool, structure: Structure, max_it: int | None = None) -> None:
+                 undrained: bool, structure: Structure, max_it: int | None = None,
+                 solver: LinearSolver | None = None) -> None:
         self.model, self.control, self.counters = model, control, counters
+        self.solver = LinearSolver() if solver is None else solver
         self.old, self.dt, self.undrained, self.st = old, dt, undrained, structure
         self.max_newton = control.max_newton if max_it is None else int(max_it)
         self.x = x
@@ -286,6 +287,12 @@ class NewtonSolve:
             xx, self.old, self.dt, undrained=self.undrained, structure=self.st,
             soft=self.soft, permeability_derivative=self.full_k, frozen=frozen)
 
+    def _residual(self, xx, frozen):
+        """The residual alone (a line-search trial point)."""
+        self.counters.residual_evaluations += 1
+        return self.model.residual(xx, self.old, self.dt, undrained=self.undrained,
+                                   structure=self.st, soft=self.soft, frozen=frozen)
+
     def _fail(self, reason: str) -> State:
         self.reason = reason
         return State.DONE
@@ -296,7 +303,10 @@ class NewtonSolve:
 
     # ------------------------------------------------------------------ states
     def _evaluate_state(self) -> State:
-        res = self._evaluate(self.x, self.frz) if self.pending is None else self.pending
+        res = self.pending
+        if res is None or res.jacobian is None:
+            # (an accepted line-search point was evaluated without its Jacobian)
+            res = self._evaluate(self.x, self.frz)
         self.pending = None
         self.res = res
         self.R = res.residual
@@ -330,6 +340,11 @@ class NewtonSolve:
         self.atol = atol
         u_ok = forces_converged(model, ctl, res, x, self.ru)
         conv = u_ok and rf <= ctl.mass_rtol * res.mass_scale + atol
+        if not conv and u_ok and rf <= ctl.stagnation_rtol * res.mass_scale + atol:
+            # at the residual's round-off floor (below): no iteration can lower it, so
+            # it is accepted without waiting to see it stagnate (capped by the
+            # stagnation tolerance, which keeps the step's mass balance)
+            conv = rf <= ctl.mass_rtol * res.mass_scale + atol + mass_floor(model, res, x)
         if not conv and self.its > 0 and u_ok and rf > 0.5 * self.prev:
             # stagnating: accepted below stagnation_rtol or at the residual's
             # round-off floor, eps sum_ij |dR_i/dx_j| |x_j| over the flow rows (each
@@ -422,7 +437,9 @@ class NewtonSolve:
                                 or (lag > 0 and self.its >= 6 and rf > 0.5 * self.rfs[-4])):
             self.full_k = True
             self.since = 0
-            res = self.res = self._evaluate(self.x, self.frz)
+            # the same iterate and residual; its Jacobian gains the crack block
+            if not self.undrained:      # (undrained: no flow, no crack block)
+                res = self.res = self.model.with_permeability_derivative(res, self.st)
         status = res.response[2]
         if self.prev_status is not None:
             self.flips = self.flips + (status != self.prev_status)
@@ -459,8 +476,18 @@ class NewtonSolve:
     def _update_state(self) -> State:
         ctl, res = self.control, self.res
         t0 = time.perf_counter()
+        # the factor is reused while the pattern holds and the contact statuses the
+        # Jacobian was linearised with are (nearly) the same (softened contacts alike)
+        # inexact Newton: a Krylov solve need reduce the linearised residual only to a
+        # fraction of the present scaled residual (KRYLOV_FORCING of it, at most
+        # KRYLOV_RTOL_MAX), which keeps the convergence quadratic
+        rtol = (min(KRYLOV_FORCING * math.sqrt(self.merit), KRYLOV_RTOL_MAX)
+                if math.isfinite(self.merit) else None)
         try:
-            dx = equilibrated_solve(res.jacobian, -self.R)
+            dx = self.solver.solve(res.jacobian, -self.R, pattern=res.pattern,
+                                   status=res.status,
+                                   variant=None if self.soft is None else self.soft.tobytes(),
+                                   rtol=rtol)
         except RuntimeError:
             self.counters.linear_solve_time += time.perf_counter() - t0
             return self._fail("newton: singular")
@@ -475,7 +502,7 @@ class NewtonSolve:
             # the statuses can cycle and the line search restores descent); not with
             # the lagged Jacobian, whose direction need not descend
             for _ in range(8):
-                trial = self._evaluate(self.x + step * dx, self.frz)
+                trial = self._residual(self.x + step * dx, self.frz)
                 if np.all(np.isfinite(trial.residual)) and scaled_norms(
                         self.model, trial)[2] < self.merit:
                     self.pending = trial
@@ -489,9 +516,9 @@ class NewtonSolve:
 
 
 def newton(stepper: Any, x, old, dt, undrained, st, max_it=None):
-    """A :class:`NewtonSolve` with the stepper's model, control and counters (its trace
-    kept as ``stepper.last_newton_trace``)."""
+    """A :class:`NewtonSolve` with the stepper's model, control, counters and linear solver
+    (its trace kept as ``stepper.last_newton_trace``)."""
     solve = NewtonSolve(stepper.model, stepper.control, stepper.counters, x, old, dt,
-                        undrained, st, max_it)
+                        undrained, st, max_it, stepper.linear_solver)
     stepper.last_newton_trace = solve.trace
     return solve.run()

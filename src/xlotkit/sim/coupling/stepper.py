@@ -25,9 +25,13 @@ from typing import Callable
 import numpy as np
 
 from xlotkit.errors import InputError
+from xlotkit.sim.coupling.linear import LinearSolver
 from xlotkit.sim.coupling.model import CoupledModel, CoupledResidual, CoupledState, Structure
-from xlotkit.sim.coupling.newton import newton
+from xlotkit.sim.coupling.newton import newton, scaled_norms
 from xlotkit.sim.mechanics import FAILED_SHEAR, FAILED_TENSILE, INTACT
+
+#: Largest ratio of the step to the last one the predictor extrapolates over.
+PREDICTOR_MAX_RATIO = 2.0
 
 __all__ = [
     "CoupledControl",
@@ -83,7 +87,12 @@ class CoupledControl:
         Newton started from a freshly failed, open but unfilled cluster follows the
         ``w -> 0`` root of the cubic-law flux otherwise). With ``0 < rtol < 1`` Picard is
         also left, for the rest of the solve, once it has stopped converging (the mass
-        residual not halved over three iterations, from the sixth on).
+        residual not halved over three iterations, from the sixth on). The default 0.03
+        leaves Picard once the contact statuses have settled and the fill of the crack
+        is under way (a few per cent of the step's mass); at 1e-3 it took one more
+        Picard iteration in most cracked solves (standard scene: 6.6 Newton iterations
+        per step at 1e-3, 5.5 at 0.03, 5.7-6.0 between 0.01 and 0.3, the same FBP and
+        sigma_h; docs/benchmarks.md, issue 20).
     stall_iterations : int
         A solve is abandoned (``"newton: stalled"``) when, at least this many iterations
         after the held branches last changed, none of the last half of them has brought
@@ -142,7 +151,7 @@ class CoupledControl:
     check_failure: bool = True
     failures_per_round: int = 4
     max_failure_rounds: int = 200
-    lagged_permeability_rtol: float = 1e-3
+    lagged_permeability_rtol: float = 0.03
     chatter: str = "freeze"
     stall_iterations: int = 12
     continuation_levels: int = 12
@@ -413,6 +422,12 @@ class CoupledStepper:
         # (iteration, max|R_u|/force scale, sum|R_f|/mass scale) of the last Newton solve
         self.last_newton_trace: list[tuple[int, float, float]] = []
         self._adjacency: tuple[np.ndarray, np.ndarray] | None = None
+        # the Newton's linear solver: orderings kept per pattern, the last factor reused
+        # (its memory is part of a checkpoint: LinearSolver.state)
+        self.linear_solver = LinearSolver()
+        # the last accepted transitions (t_prev, x_prev, state): the predictor of a step
+        # from `state` extrapolates from (t_prev, x_prev)
+        self._transitions: list[tuple[float, np.ndarray, CoupledState]] = []
 
     # ---------------------------------------------------------------- failure
     def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
@@ -475,6 +490,49 @@ class CoupledStepper:
                        continuation_levels=levels, **kw)
         self.history.append(r)
         return r
+
+    @property
+    def predictor_history(self) -> tuple[float, np.ndarray] | None:
+        """``(t_prev, x_prev)``: the state the present one was reached from (what the
+        next step's predictor extrapolates from), or None. A checkpoint keeps it so that a
+        resumed run predicts as the uninterrupted one does."""
+        for t_prev, x_prev, succ in self._transitions:
+            if succ is self.state:
+                return t_prev, x_prev
+        return None
+
+    @predictor_history.setter
+    def predictor_history(self, value: tuple[float, np.ndarray] | None) -> None:
+        self._transitions = [] if value is None else [
+            (float(value[0]), np.array(value[1], dtype=float), self.state)]
+
+    def _extrapolate(self, x: np.ndarray, old: CoupledState, dt: float,
+                     st: Structure) -> np.ndarray:
+        """Start of the Newton of a step of ``dt`` from ``old``: the linear extrapolation
+        of the last accepted step (``x_n + dt (x_n - x_{n-1}) / dt_{n-1}``, the ratio
+        capped at :data:`PREDICTOR_MAX_RATIO`) when its residual is smaller than that of
+        ``x_n`` itself, else ``x_n``.
+
+        Along a smooth path the extrapolation is second-order accurate, and it carries
+        the contact statuses the step is heading to (a crack opening as the pressure
+        rises), which the Newton from ``x_n`` finds only after an iteration or two. At a
+        change of the schedule (pump to shut-in) or after a cluster failure the residual
+        comparison keeps ``x_n``."""
+        hist = None
+        for t_prev, x_prev, succ in self._transitions:
+            if succ is old:
+                hist = (t_prev, x_prev)
+        if hist is None or not old.t > hist[0]:
+            return x
+        ratio = min(dt / (old.t - hist[0]), PREDICTOR_MAX_RATIO)
+        xp = x + ratio * (x - hist[1])
+        model = self.model
+        r0 = model.residual(x, old, dt, structure=st)
+        r1 = model.residual(xp, old, dt, structure=st)
+        self.counters.residual_evaluations += 2
+        if not np.all(np.isfinite(r1.residual)):
+            return x
+        return xp if scaled_norms(model, r1)[2] < scaled_norms(model, r0)[2] else x
 
     @staticmethod
     def _predict(h, h_done, x_done, h_prev, x_prev):
@@ -560,6 +618,8 @@ class CoupledStepper:
         old = self.state
         st = model.structure_of(old)
         x = model.x_of(old)
+        if not undrained:
+            x = self._extrapolate(x, old, dt, st)
         t_new = old.t if undrained else old.t + dt
         step_dt = 0.0 if undrained else dt
         its = solves = rounds = new_total = 0
@@ -660,6 +720,8 @@ class CoupledStepper:
                                         np.array(st.slip), np.asarray(st.cluster_state))
         st = replace(st, ref_shear=ref_s, slip=slip)
         self.state = model.finish_state(res, st)
+        self._transitions = ([tp for tp in self._transitions if tp[2] is old][-1:]
+                             + [(old.t, model.x_of(old), self.state)])
         self.counters.steps += 1
         self.counters.failed_clusters += new_total
         r = StepResult(True, reason, its, solves, step_dt, t_new, new_failures=new_total,

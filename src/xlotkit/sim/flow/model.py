@@ -69,6 +69,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from xlotkit.errors import InputError
+from xlotkit.sim.flow.kernels import face_fluxes
 from xlotkit.sim.flow.properties import (
     FluidProperties,
     OuterBoundary,
@@ -174,6 +175,10 @@ class FlowResidual:
     d_residual_d_well_volume : float
         ``dR_w/dV^x_w = rho(p_w)/dt`` [kg/(s m^3)] (rate-driven well; 0 when the well row
         is a pressure equation), the chain-rule factor for the hole's volume change.
+    jacobian_values : ndarray, optional
+        The Jacobian's entries in the fixed order of :attr:`FlowModel.jacobian_triplets`
+        (duplicates to be summed), for callers that assemble it into a larger matrix of a
+        fixed sparsity pattern.
     """
 
     residual: np.ndarray
@@ -186,6 +191,7 @@ class FlowResidual:
     storage_rate_well: float
     throughput: float
     d_residual_d_well_volume: float = 0.0
+    jacobian_values: np.ndarray | None = None
 
     @property
     def mass_rate_imbalance(self) -> float:
@@ -444,6 +450,7 @@ class FlowModel:
         self._well_t0 = self.permeability[owners[hole, 0]] * g[hole, 0]
         self.n_well_faces = len(hole)
         self.n_fixed_faces = len(dirichlet)
+        self._setup_triplets()
 
         if self.well.storage is not None:
             self.well_storage = float(self.well.storage)
@@ -475,6 +482,47 @@ class FlowModel:
     def n_unknowns(self) -> int:
         """``m + 1`` (cell pressures and the well pressure)."""
         return self.n_cells + 1
+
+    def _setup_triplets(self) -> None:
+        """The fixed (row, col) order of the Jacobian's entries and of ``dR/dk``'s, and the
+        CSR structure they are summed into (built once: the connections never change)."""
+        m = self.n_cells
+        c = self._conn
+        a, b, da = c.a, c.b, c.d_cell
+        cells = np.arange(m, dtype=np.int64)
+        wm = np.array([m], dtype=np.int64)
+        # storage diagonal, well storage, the four entries of every connection, the
+        # fixed-pressure edges and the well row's own entry (rate derivative or the
+        # pressure equation); see residual_and_jacobian for the values
+        rows = np.concatenate([cells, wm, a, a, b, b, da, wm])
+        cols = np.concatenate([cells, wm, a, b, a, b, da, wm])
+        self._trip = (rows, cols)
+        # entries of the well row other than its last one: zero when the well row is a
+        # pressure equation (or there is no well)
+        self._well_row_entries = np.flatnonzero(rows[:-1] == m)
+        n = m + 1
+        key = rows * np.int64(n) + cols
+        uniq, slot = np.unique(key, return_inverse=True)
+        self._jac_slot = slot.astype(np.int64)
+        self._jac_indices = (uniq % n).astype(np.int32)
+        self._jac_indptr = np.concatenate(
+            [[0], np.cumsum(np.bincount(uniq // n, minlength=n))]).astype(np.int32)
+        ni = self.n_interior_faces
+        bk = np.where(c.is_well, 0, b)
+        self._perm_trip = (np.concatenate([a, b, a[:ni], b[:ni], da]),
+                           np.concatenate([a, a, bk[:ni], bk[:ni], da]))
+
+    @property
+    def jacobian_triplets(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(rows, cols)`` of the Jacobian's entries in the order of
+        :attr:`FlowResidual.jacobian_values` (fixed for the model; duplicates summed)."""
+        return self._trip
+
+    @property
+    def permeability_triplets(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(rows, cols)`` of the entries of ``dR/dk`` (rows: unknowns, cols: cells) in
+        the order of :meth:`permeability_derivative_values` (fixed for the model)."""
+        return self._perm_trip
 
     def initial_state(self, p0, p_w: float | None = None, t: float = 0.0,
                       extra_pore_volume=None) -> FlowState:
@@ -556,14 +604,12 @@ class FlowModel:
         dka[ni:] = c.g_a[ni:]
         return dka, dkb, c.d_g.copy()
 
-    def d_residual_d_permeability(self, state: FlowState, permeability=None):
-        """``dR/dk`` [kg/(s m^2)], sparse, shape (m + 1, m), at ``state``.
-
-        For the monolithic hydro-mechanical Jacobian with aperture-dependent permeability:
-        ``dR/du += dR/dk . dk/du`` (``dk/dw_h`` from
-        :func:`~xlotkit.sim.flow.fracture.permeability_multiplier_derivative`). The well row
-        of a pressure-controlled well does not depend on ``k``; its entries are dropped.
-        """
+    def permeability_derivative_values(self, state: FlowState, permeability=None
+                                       ) -> np.ndarray:
+        """The entries of ``dR/dk`` [kg/(s m^2)] at ``state`` in the order of
+        :attr:`permeability_triplets` (duplicates to be summed). The well row of a
+        pressure-controlled well (or of a mesh without a hole) does not depend on ``k``:
+        its entries are 0."""
         m = self.n_cells
         mu = self.fluid.viscosity
         c = self._conn
@@ -575,14 +621,26 @@ class FlowModel:
         dka, dkb, dkd = self.transmissibility_derivatives(permeability)
         g = lam_up * delta                      # dF/dT, F flows from b into a
         ni = self.n_interior_faces
-        bk = np.where(c.is_well, 0, b)          # column for dT/dk_b (0 where unused)
         da = c.d_cell
         dd = c.d_p - state.p[da]
         lam_d = np.where(dd < 0.0, lam[da], self.fluid.rho(c.d_p) / mu)
-        rows = np.concatenate([a, b, a[:ni], b[:ni], da])
-        cols = np.concatenate([a, a, bk[:ni], bk[:ni], da])
         vals = np.concatenate([-g * dka, g * dka, -g[:ni] * dkb[:ni], g[:ni] * dkb[:ni],
                                -lam_d * dd * dkd])
+        if self.well.pressure_controlled or not self.has_well:
+            vals[self._perm_trip[0] == m] = 0.0
+        return vals
+
+    def d_residual_d_permeability(self, state: FlowState, permeability=None):
+        """``dR/dk`` [kg/(s m^2)], sparse, shape (m + 1, m), at ``state``.
+
+        For the monolithic hydro-mechanical Jacobian with aperture-dependent permeability:
+        ``dR/du += dR/dk . dk/du`` (``dk/dw_h`` from
+        :func:`~xlotkit.sim.flow.fracture.permeability_multiplier_derivative`). The well row
+        of a pressure-controlled well does not depend on ``k``; its entries are dropped.
+        """
+        m = self.n_cells
+        rows, cols = self._perm_trip
+        vals = self.permeability_derivative_values(state, permeability)
         if self.well.pressure_controlled or not self.has_well:
             keep = rows != m
             rows, cols, vals = rows[keep], cols[keep], vals[keep]
@@ -601,7 +659,8 @@ class FlowModel:
     def residual_and_jacobian(self, state: FlowState, state_old: FlowState, dt: float, *,
                               permeability=None, well_rate=None,
                               well_pressure: float | None = None,
-                              well_storage: float | None = None) -> FlowResidual:
+                              well_storage: float | None = None,
+                              jacobian: str = "csr") -> FlowResidual:
         """Backward-Euler residual ``R(p, p_w)`` and its analytic sparse Jacobian.
 
         Parameters
@@ -623,11 +682,19 @@ class FlowModel:
         well_storage : float, optional
             Override of the well compliance ``C_w`` [m^3/Pa] (e.g. the segment's own plus
             the whole well's, set by the hydro-mechanical step).
+        jacobian : {"csr", "values", "none"}
+            ``"csr"``: the Jacobian as a CSR matrix (and its entries); ``"values"``: only
+            its entries in the order of :attr:`jacobian_triplets`
+            (``FlowResidual.jacobian_values``, ``jacobian`` None), for assembly into a
+            larger matrix; ``"none"``: the residual alone (a line search's trial point).
 
         Returns
         -------
         FlowResidual
         """
+        if jacobian not in ("csr", "values", "none"):
+            raise InputError(f"unknown Jacobian form {jacobian!r}", key="jacobian",
+                             expected="'csr', 'values' or 'none'")
         if not (dt > 0 and np.isfinite(dt)):
             raise InputError(f"time step must be > 0, got {dt!r}", key="dt")
         m = self.n_cells
@@ -668,12 +735,7 @@ class FlowModel:
         rho_x = np.append(rho, rho_w)
         lam = rho_x / mu
         a, b = c.a, c.b
-        delta = x[b] - x[a]
-        up_a = delta < 0.0           # flow from a to b: a is upstream
-        lam_up = np.where(up_a, lam[a], lam[b])
-        F = lam_up * T * delta       # mass rate from b into a [kg/s]
-        dF_da = T * (np.where(up_a, cf * lam[a], 0.0) * delta - lam_up)
-        dF_db = T * (np.where(up_a, 0.0, cf * lam[b]) * delta + lam_up)
+        F, dF_da, dF_db = face_fluxes(x, lam, cf, T, a, b)   # from b into a [kg/s]
 
         # -- fixed-pressure outer edges
         da = c.d_cell
@@ -694,18 +756,12 @@ class FlowModel:
         formation_rate = float(np.sum(F[c.is_well]))
         boundary_rate = float(-np.sum(Fd))
 
-        rows = [np.arange(m), [m], a, a, b, b, da]
-        cols = [np.arange(m), [m], a, b, a, b, da]
-        vals = [dstore, [dstore_w], -dF_da, -dF_db, dF_da, dF_db, -dFd_da]
-
         if not self.has_well:
             # isolated well unknown: keep p_w (no hole, nothing to inject into)
             s = 1.0
             R[m] = s * (pw - pwo)
             injection = 0.0
-            rows.append([m])
-            cols.append([m])
-            vals.append([s])
+            last = s
             keep_well_row = False
         elif self.well.pressure_controlled or well_pressure is not None:
             p_set = (well_pressure if well_pressure is not None
@@ -716,9 +772,7 @@ class FlowModel:
             s = (float(np.sum(self._well_t0)) / mu + Cw / dt) * f.density
             s = s if s > 0 else 1.0
             R[m] = s * (pw - p_set)
-            rows.append([m])
-            cols.append([m])
-            vals.append([s])
+            last = s
             keep_well_row = False
         else:
             if well_rate is None:
@@ -729,22 +783,25 @@ class FlowModel:
                 q, dq = (float(v) for v in well_rate)
             injection = f.density * q
             R[m] -= injection
-            rows.append([m])
-            cols.append([m])
-            vals.append([-f.density * dq])
+            last = -f.density * dq
             keep_well_row = True
 
-        rows = np.concatenate([np.asarray(v, dtype=np.int64).ravel() for v in rows])
-        cols = np.concatenate([np.asarray(v, dtype=np.int64).ravel() for v in cols])
-        vals = np.concatenate([np.asarray(v, dtype=float).ravel() for v in vals])
-        if not keep_well_row:
-            # the well row is the (already appended) pressure equation only
-            drop = (rows == m)
-            drop[-1] = False
-            rows, cols, vals = rows[~drop], cols[~drop], vals[~drop]
-        J = sp.csr_matrix((vals, (rows, cols)), shape=(n, n))  # duplicates are summed
+        J = vals = None
+        if jacobian != "none":
+            # entries in the fixed order of jacobian_triplets
+            vals = np.concatenate([dstore, [dstore_w], -dF_da, -dF_db, dF_da, dF_db,
+                                   -dFd_da, [last]])
+            if not keep_well_row:
+                # the well row is the pressure equation (its last entry) only
+                vals[self._well_row_entries] = 0.0
+            if jacobian == "csr":
+                data = np.bincount(self._jac_slot, weights=vals,
+                                   minlength=len(self._jac_indices))
+                J = sp.csr_matrix((data, self._jac_indices.copy(), self._jac_indptr.copy()),
+                                  shape=(n, n))
         return FlowResidual(
             residual=R, jacobian=J, d_residual_d_extra_volume=rho / dt,
+            jacobian_values=vals,
             injection_rate=float(injection), formation_rate=formation_rate,
             boundary_rate=boundary_rate, storage_rate_cells=store,
             storage_rate_well=float(store_w),

@@ -71,6 +71,7 @@ from xlotkit.sim.mechanics.failure import (
     toughness_margin,
 )
 from xlotkit.sim.mechanics.fronts import CrackFront, CrackFronts
+from xlotkit.sim.mechanics.kernels import contact_response, tangent_blocks
 from xlotkit.sim.mechanics.states import (
     BONDED,
     FAILED_SHEAR,
@@ -100,7 +101,6 @@ __all__ = [
     "MechanicsState",
 ]
 
-_EPS_OPEN = 1e-9
 # active-set iterations before the residual line search is switched on (see _equilibrate)
 _LINE_SEARCH_AFTER = 10
 # status changes after which a contact counts as chattering (see _equilibrate)
@@ -379,61 +379,28 @@ class MechanicsModel:
 
     # ------------------------------------------------------------------ kernels
     def _response(self, u: np.ndarray, cstate: np.ndarray, ref_n: np.ndarray,
-                  ref_s: np.ndarray, p: np.ndarray):
-        """Contact forces, statuses and cluster internal forces at displacement u."""
-        uc = u.reshape(-1)[self.dofs]  # (c, 6)
-        failed = cstate != INTACT
-        # intact: F = F0 + K U_n (Biot pressure)
-        Un_reg = np.einsum("cmi,ci->cm", self.bn, uc)
-        F_int = self.F0 + np.einsum("cmn,cn->cm", self.K, Un_reg)
-        # failed: contact law
-        Un = np.einsum("cmi,ci->cm", self.bn_c, uc)
-        Us = np.einsum("cmi,ci->cm", self.bs_c, uc)
-        trial_n = self.kn * (Un - ref_n)
-        is_open = trial_n > 0.0
-        Fn = np.where(is_open, 0.0, trial_n)
-        trial_s = self.ks * (Us - ref_s)
-        cap = self.mu * (-Fn)
-        slip = ~is_open & (np.abs(trial_s) > cap)
-        Fs = np.where(is_open, 0.0, np.where(slip, np.sign(trial_s) * cap, trial_s))
-        status = np.where(is_open, OPEN, np.where(slip, SLIP, STICK))
-        status[~failed] = BONDED
-        Fn = np.where(failed[:, None], Fn, F_int)
-        Fs = np.where(failed[:, None], Fs, 0.0)
-        alpha = np.where(failed, 1.0, self.rock.biot)
-        f_c = (np.einsum("cmi,cm->ci", np.where(failed[:, None, None], self.bn_c, self.bn), Fn)
-               + np.einsum("cmi,cm->ci", self.bs_c, Fs)
-               - (alpha * p)[:, None] * self.g_pressure)
-        return Fn, Fs, status, np.sign(trial_s), f_c, Un, Us
+                  ref_s: np.ndarray, p: np.ndarray, frozen=None):
+        """Contact forces, statuses and cluster internal forces at u
+        (:func:`~xlotkit.sim.mechanics.kernels.contact_response` with this model's contact
+        operators, stiffnesses and friction; ``frozen`` holds contacts on a branch).
+
+        Returns ``(Fn, Fs, status, sgn, f_c, Un, Us)``."""
+        return contact_response(u, self.dofs, cstate, ref_n, ref_s, p, bn=self.bn, K=self.K,
+                                F0=self.F0, bn_c=self.bn_c, bs_c=self.bs_c, kn=self.kn,
+                                ks=self.ks, mu=self.mu, g_pressure=self.g_pressure,
+                                biot=self.rock.biot, frozen=frozen)
 
     def _tangent_blocks(self, cstate: np.ndarray, status: np.ndarray,
                         sgn: np.ndarray, soft: np.ndarray | None = None) -> np.ndarray:
-        """Element tangent blocks; ``soft`` (n_c, 3) marks chattering contacts whose
-        shear is linearised with the elastic (stick) stiffness and no normal coupling:
-        an initial-stiffness tangent, symmetric and never singular, that converges
-        linearly where the exact one cycles."""
-        blocks = self.k_intact.copy()
-        failed = np.nonzero(cstate != INTACT)[0]
-        if len(failed):
-            st = status[failed]
-            bn = self.bn_c[failed]
-            bs = self.bs_c[failed]
-            # open contacts keep 1e-9 of their stiffness in the *Jacobian only* (the
-            # residual uses the exact zero force): nodes held only by open contacts would
-            # otherwise make the matrix singular; the converged answer is unaffected.
-            closed = np.where(st != OPEN, 1.0, _EPS_OPEN)
-            kn = self.kn[failed] * closed
-            kss = self.ks[failed] * np.where(st == STICK, 1.0, _EPS_OPEN)
-            kslip = -self.mu[failed] * sgn[failed] * self.kn[failed] * (st == SLIP)
-            if soft is not None:
-                sf = soft[failed]
-                kss = np.where(sf, self.ks[failed], kss)
-                kslip = np.where(sf, 0.0, kslip)
-            blk = (np.einsum("cm,cmi,cmj->cij", kn, bn, bn)
-                   + np.einsum("cm,cmi,cmj->cij", kss, bs, bs)
-                   + np.einsum("cm,cmi,cmj->cij", kslip, bs, bn))
-            blocks[failed] = blk
-        return blocks
+        """Element tangent blocks (:func:`~xlotkit.sim.mechanics.kernels.tangent_blocks`);
+        ``soft`` (n_c, 3) marks chattering contacts whose shear is linearised with the
+        elastic (stick) stiffness and no normal coupling: an initial-stiffness tangent,
+        symmetric and never singular, that converges linearly where the exact one cycles.
+        Open contacts keep ``EPS_OPEN`` of their stiffness in the *Jacobian only* (the
+        residual uses the exact zero force): nodes held only by open contacts would
+        otherwise make the matrix singular; the converged answer is unaffected."""
+        return tangent_blocks(cstate, status, sgn, k_intact=self.k_intact, bn_c=self.bn_c,
+                              bs_c=self.bs_c, kn=self.kn, ks=self.ks, mu=self.mu, soft=soft)
 
     def _equilibrate(self, u, cstate, ref_n, ref_s, p, pw):
         f_ext = self.f_far + pw * self.f_wall
@@ -622,7 +589,10 @@ class MechanicsModel:
         """After a converged step: move shear references by the frictional slip."""
         Fn, Fs, status, Un, Us = resp
         failed = (cstate != INTACT)[:, None]
-        new_ref = np.where(status == OPEN, Us, Us - Fs / self.ks)
+        # a sticking contact keeps its reference (Us - Fs/ks is it, up to the round-off
+        # that would otherwise accumulate as spurious slip)
+        new_ref = np.where(status == OPEN, Us,
+                           np.where(status == STICK, ref_s, Us - Fs / self.ks))
         new_ref = np.where(failed, new_ref, ref_s)
         dslip = np.where(failed & (status != OPEN), new_ref - ref_s, 0.0)
         return new_ref, slip + np.abs(dslip)
