@@ -23,6 +23,8 @@ from xlotkit.sim.flow import (
 )
 from xlotkit.sim.mechanics import (
     BoundaryConditions,
+    ClosureLaw,
+    CrackPlanes,
     FracturePlane,
     InSituStress,
     InterfacePlane,
@@ -140,8 +142,16 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     if eff.fracture_plane:
         fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
                                friction_angle_deg=rk.fracture_friction_angle)
+    cplanes = (CrackPlanes(friction_angle_deg=rk.fracture_friction_angle)
+               if rk.crack_plane == "stress" else None)
+    closure = ClosureLaw(rk.closure_law, normal_stiffness=rk.joint_normal_stiffness,
+                         max_closure=rk.joint_max_closure,
+                         reference_stress=rk.joint_reference_stress,
+                         sealed_aperture=(RESIDUAL_APERTURE if rk.sealed_aperture is None
+                                          else rk.sealed_aperture))
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes, fracture_plane=fplane)
+                          interfaces=planes, fracture_plane=fplane, crack_planes=cplanes,
+                          closure=closure)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)
@@ -153,7 +163,10 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     h = geo.segment_height
     extra = max(total_well_compliance(scene) - float(flow.well_storage), 0.0) / h
     psi = (math.radians(rk.dilation_angle) if eff.shear_dilation else None)
-    model = CoupledModel(mech, flow, residual_aperture=RESIDUAL_APERTURE,
+    # the closed crack's aperture: the smooth law's constant one, or the closure law's at
+    # zero effective stress (the gap tolerance of the Newton is a fraction of it)
+    w_res = closure.zero_stress_aperture if closure.nonlinear else RESIDUAL_APERTURE
+    model = CoupledModel(mech, flow, residual_aperture=w_res,
                          well_compliance=extra, check_storage=eff.poroelastic,
                          dilation_angle=psi)
     return model, pw0
