@@ -269,8 +269,18 @@ class MDEMEngine:
     # ------------------------------------------------------------------ well rate
     def _well_rate(self, t: float, p_w: float):
         """``(Q, dQ/dp_w)`` of the phase in force [m^3/s at surface density, per segment]
-        (:meth:`xlotkit.sim.well.PhaseDrive.rate`)."""
-        return self._drive.rate(t, p_w)
+        (:meth:`xlotkit.sim.well.PhaseDrive.rate`).
+
+        A Newton iterate far out (a bottom-hole pressure at which the choke's fluid
+        column has no solution) gets a non-finite rate: the Newton then backs off along
+        its update as for any non-finite residual, instead of ending the run.
+        """
+        try:
+            return self._drive.rate(t, p_w)
+        except InputError as exc:
+            if exc.key != "column":
+                raise
+            return (math.nan, math.nan)
 
     def _surface(self, p_bh: float, rate: float) -> float:
         """Surface gauge pressure [Pa] from the bottom-hole pressure and the rate."""

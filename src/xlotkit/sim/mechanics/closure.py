@@ -155,7 +155,8 @@ class ClosureLaw:
 
 
 def closure_of_stress(law: ClosureLaw, sigma) -> np.ndarray:
-    """Closure ``delta(sigma)`` [m] of the closed form (no tangent continuation).
+    """Closure ``delta(sigma)`` [m]: the closed form, and beyond the stress at
+    ``delta_c`` the inverse of :func:`stress_of_closure`'s tangent line (module docstring).
 
     Parameters
     ----------
@@ -167,13 +168,17 @@ def closure_of_stress(law: ClosureLaw, sigma) -> np.ndarray:
     s = np.asarray(sigma, dtype=float)
     if np.any(s < 0):
         raise InputError("must be >= 0 (compression positive)", key="sigma")
+    if not law.nonlinear:
+        raise ValueError("the smooth law's closure is the contact's own k_n")
     vm = float(law.max_closure)
     if law.kind == "barton_bandis":
         kni = float(law.normal_stiffness)
-        return s * vm / (kni * vm + s)
-    if law.kind == "exponential":
-        return vm * -np.expm1(-s / float(law.reference_stress))
-    raise ValueError("the smooth law's closure is the contact's own k_n")
+        d = s * vm / (kni * vm + s)
+    else:
+        d = vm * -np.expm1(-s / float(law.reference_stress))
+    dc = (1.0 - CLOSURE_CAP) * vm
+    sc, kc = _raw(law, np.array(dc))
+    return np.where(s > sc, dc + (s - sc) / kc, d)
 
 
 def _raw(law: ClosureLaw, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -21,13 +21,13 @@ centroid; the two contacts (sub-edges) whose nodes lie on either side of it meas
 opening and sliding against the plane's normal (a smooth joint); the third joins two
 nodes on one face and keeps its sub-edge direction.
 
-How much joint (:func:`joint_lengths`): a contact ``m`` crossing the plane ``n`` carries
-the joint length ``l_m = A / (n_j |n . dx_m|)`` (``n_j`` crossing contacts, ``A`` the
-cluster area), so that a closure ``delta`` shared by the crossing contacts at the joint
-stress ``sigma`` (contact forces ``-l_m sigma`` along ``n``) gives the cluster the average
-stress ``sigma`` normal to the plane (``sum_m l_m |n . dx_m| = A``): the crack-band view
-of a crack smeared over the cluster. The joint lengths of a row of clusters along a
-straight crack add up to the crack's length.
+How much joint (:func:`joint_lengths`): the two contacts crossing the plane ``n`` share
+the joint length ``|n x dx_e| / 2`` (half the face edge ``e`` projected on the plane),
+``l_m = |n x dx_e| / 4`` each, so that a joint stress ``sigma`` (contact forces
+``-l_m sigma`` along ``n``) does on the crack's opening the work of the cluster stress
+``sigma`` normal to the plane on the opening's strain (the crack-band view of a crack
+smeared over its cluster). The joint lengths of a row of clusters along a straight crack
+add up to the crack's length.
 """
 
 from __future__ import annotations
@@ -172,8 +172,20 @@ def plane_crossing(points: np.ndarray, centroid: np.ndarray,
 
 def joint_lengths(area: np.ndarray, dx: np.ndarray, normals: np.ndarray,
                   joint: np.ndarray) -> np.ndarray:
-    """Joint length ``l_m = A / (n_j |n_m . dx_m|)`` of every joint contact [m] (module
-    docstring); 0 for the other contacts.
+    """Joint length ``l_m`` of every joint contact [m] (module docstring); 0 for the others.
+
+    A cluster on a plane (two joint contacts, the third the face edge ``e``): the crack's
+    opening ``w`` (the lone node moving off the face along ``n``) is the CST strain
+    ``w n . grad N_k`` normal to the plane, so a joint traction ``sigma`` does the work
+    ``sigma w A |n . grad N_k| = sigma w |n x dx_e| / 2`` on it; the two crossing contacts
+    share that joint length equally, ``l_m = |n x dx_e| / 4``. (Where the face edge is
+    steep to the plane, the opening's CST strain normal to the plane can even be of the
+    other sign; the joint length is its magnitude, half the face edge's shadow on the
+    plane.) Along a straight crack the joint lengths of its clusters add up to the
+    crack's length. Any other count of
+    joint contacts (all three: no plane): ``l_m = A / (n_j |n_m . dx_m|)``, which gives a
+    cluster whose joint contacts close alike the average stress ``sigma`` along their
+    normals.
 
     Parameters
     ----------
@@ -187,11 +199,19 @@ def joint_lengths(area: np.ndarray, dx: np.ndarray, normals: np.ndarray,
         Contacts on the crack (crossing the plane).
     """
     jt = np.asarray(joint, dtype=bool)
-    proj = np.abs(np.einsum("kmi,kmi->km", np.asarray(normals, dtype=float),
-                            np.asarray(dx, dtype=float)))
+    nrm = np.asarray(normals, dtype=float)
+    d = np.asarray(dx, dtype=float)
+    proj = np.abs(np.einsum("kmi,kmi->km", nrm, d))
     nj = np.sum(jt, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ell = np.asarray(area, dtype=float)[:, None] / (np.maximum(nj, 1)[:, None] * proj)
+    two = np.flatnonzero(nj == 2)
+    if two.size:
+        e = np.argmin(jt[two], axis=1)                        # the face edge
+        m0 = np.argmax(jt[two], axis=1)                       # a crossing contact
+        n = nrm[two, m0]
+        de = d[two, e]
+        ell[two] = (0.25 * np.abs(n[:, 0] * de[:, 1] - n[:, 1] * de[:, 0]))[:, None]
     return np.where(jt & (proj > 0), ell, 0.0)
 
 
