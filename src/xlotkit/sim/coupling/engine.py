@@ -272,11 +272,13 @@ class MDEMEngine:
         (:meth:`xlotkit.sim.well.PhaseDrive.rate`).
 
         A Newton iterate far out (a bottom-hole pressure at which the choke's fluid
-        column has no solution) gets a non-finite rate: the Newton then backs off along
+        column overflows or has no solution) gets a non-finite rate: the Newton then backs off along
         its update as for any non-finite residual, instead of ending the run.
         """
         try:
             return self._drive.rate(t, p_w)
+        except OverflowError:
+            return (math.nan, math.nan)
         except InputError as exc:
             if exc.key != "column":
                 raise

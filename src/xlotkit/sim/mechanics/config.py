@@ -308,7 +308,8 @@ class CrackPlanes:
     Mohr-Coulomb plane in shear) and kept; its contacts that cross the plane (through the
     centroid) measure opening and sliding against the plane's normal (smooth joint, as
     :class:`FracturePlane` does along a preset direction), and all three contacts slide
-    with ``friction_angle_deg``. Clusters of a :class:`FracturePlane` band and of
+    with ``friction_angle_deg`` (a tensile crack) or the rock's friction angle (a cluster
+    failed in shear, on its Mohr-Coulomb plane). Clusters of a :class:`FracturePlane` band and of
     :class:`InterfacePlane` segments keep their own planes.
 
     Without it (the former free path) a failed cluster's contacts keep the triangle's
@@ -319,7 +320,7 @@ class CrackPlanes:
     Parameters
     ----------
     friction_angle_deg : float
-        Friction angle of the crack faces [deg], in [0, 89].
+        Friction angle of the faces of tensile cracks [deg], in [0, 89].
     """
 
     friction_angle_deg: float = 0.0

@@ -7,9 +7,15 @@ Which plane (set once, when the cluster fails; see docs/mechanics.md, "Crack pla
 
 * tensile failure (:func:`tensile_plane_normal`): the plane normal to the minimum
   effective principal stress ``sigma'_min`` of the cluster at failure, i.e. the plane a
-  mode-I crack opens on. At a crack tip this is the cluster-average stress of the tip
-  field, whose least compressive direction is the maximum-hoop-stress kink direction of
-  the tip (Erdogan & Sih): the crack turns where the stress field turns it.
+  mode-I crack opens on. Where the stress did not open it (no tension in its average
+  effective stress: a tip cluster beside a pressurised crack, in nearly isotropic
+  compression, failed on the toughness criterion of that crack) or has no direction (its
+  principal stresses differ by less than its strength), the cluster continues the cracks
+  that share a node with it (their mean plane, :func:`mean_axis`), if any. (The crack line fitted by the crack fronts was tried for the fronts' leads: with
+  one or two failed clusters behind a tip it has no direction either, and gave a mouth
+  cluster a plane 144 deg off its neighbour's on the coarse graded hard case; the
+  maximum-hoop-stress kink of ``K_I``, ``K_II`` added to it put one 66 deg off, ``K_II``
+  of the interaction integral being first order in the error of that line.)
 * shear failure (:func:`shear_plane_normals`, :func:`choose_conjugate`): a Mohr-Coulomb
   plane, whose normal makes ``beta = pi/4 + phi/2`` with ``sigma'_1``. Of the two
   conjugate planes the one closer to the cracks already next to the cluster (their mean

@@ -66,6 +66,7 @@ from xlotkit.sim.mechanics.config import (
 )
 from xlotkit.sim.mechanics.failure import (
     crack_tip_margin,
+    principal_stresses,
     crack_tip_toughness,
     mohr_coulomb_margin,
     strength_fields,
@@ -480,14 +481,25 @@ class MechanicsModel:
         else:
             eff = np.asarray(effective_stress, dtype=float)[cf]
             nrm = tensile_plane_normal(eff)
-            sh = ~np.asarray(tensile, dtype=bool)[free]
+            ten = np.asarray(tensile, dtype=bool)[free]
+            s1, s2, _ = principal_stresses(eff)
+            T = self.strengths(cluster_state)[0][cf]
+            for k, c in enumerate(cf):
+                if ten[k] and (s2[k] >= 0.0 or s1[k] - s2[k] < T[k]):
+                    # the stress did not open it (no tension in its average: a tip
+                    # cluster failed on the toughness of the crack beside it) or has no
+                    # direction: continue the cracks next to it, if any
+                    ax = self._nearby_axis(int(c), cluster_state, out)
+                    if np.any(ax != 0.0):
+                        nrm[k] = ax
+            sh = ~ten
             if sh.any():
                 cand = shear_plane_normals(eff[sh], self.rock.friction_angle)
                 ref = np.array([self._nearby_axis(int(c), cluster_state, out)
                                 for c in cf[sh]]).reshape(-1, 2)
                 nrm[sh] = choose_conjugate(cand, ref)
         out[cf] = nrm
-        self._apply_planes(cf, nrm)
+        self._apply_planes(cf, nrm, ~np.asarray(tensile, dtype=bool)[free])
         return out
 
     def _nearby_axis(self, c: int, cluster_state: np.ndarray,
@@ -504,9 +516,13 @@ class MechanicsModel:
         n = n[np.any(n != 0.0, axis=1)]
         return mean_axis(n) if len(n) else np.zeros(2)
 
-    def _apply_planes(self, idx: np.ndarray, normals: np.ndarray) -> None:
-        """Contact directions, operators and joint lengths of clusters ``idx`` on the
-        planes ``normals`` (unit, (k, 2)); crossing contacts as in :class:`FracturePlane`."""
+    def _apply_planes(self, idx: np.ndarray, normals: np.ndarray, shear: np.ndarray) -> None:
+        """Contact directions, operators, joint lengths and friction of clusters ``idx``
+        on the planes ``normals`` (unit, (k, 2)); crossing contacts as in
+        :class:`FracturePlane`. Clusters failed in tension (``shear`` False) slide with
+        the crack faces' friction (:class:`CrackPlanes`), in shear with the rock's: a
+        Mohr-Coulomb plane is a plane of friction ``phi`` (a frictionless one, free to
+        slide, unloads its neighbours and fails them in turn)."""
         g = self.geometry
         tris = self.mesh.triangles[idx]
         pts = self.mesh.nodes[tris]
@@ -520,6 +536,9 @@ class MechanicsModel:
         self.bn_c[idx], self.bs_c[idx] = joint_operators(g.dx[idx], cn, ct, cross)
         self.joint[idx] = cross
         self.ell[idx] = joint_lengths(g.area[idx], g.dx[idx], cn, cross)
+        self.mu[idx, :] = np.where(np.asarray(shear, dtype=bool), self.tan_phi,
+                                   math.tan(math.radians(self.crack_planes.friction_angle_deg))
+                                   )[:, None]
         self._plane_applied[idx] = normals
 
     def sync_planes(self, cluster_state: np.ndarray, crack_normal: np.ndarray) -> None:
@@ -537,7 +556,7 @@ class MechanicsModel:
         diff = fl & np.any(cn != self._plane_applied, axis=1) & np.any(cn != 0.0, axis=1)
         if diff.any():
             idx = np.flatnonzero(diff)
-            self._apply_planes(idx, cn[idx])
+            self._apply_planes(idx, cn[idx], np.asarray(cluster_state)[idx] == FAILED_SHEAR)
 
     def plane_azimuth(self, crack_normal: np.ndarray) -> np.ndarray:
         """Direction of each crack plane [deg] in [0, 180) from +x; nan without one."""

@@ -167,9 +167,10 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                             "effects.strength_scaling; sets A_ref from T0, needs the "
                             "exponent 0.25)"),
         "fracture_friction_angle": _k("angle", "deg", 0.0, 89.0,
-                                      doc="friction angle of the crack faces of failed "
-                                          "clusters on a crack plane (crack_plane = "
-                                          "'stress', or effects.fracture_plane)"),
+                                      doc="friction angle of the faces of tensile cracks "
+                                          "on a crack plane (crack_plane = 'stress'; "
+                                          "shear cracks slide with friction_angle), and "
+                                          "of the fracture band's (effects.fracture_plane)"),
         "crack_plane": _k("choice", choices=("stress", "edges"),
                           doc="the crack inside a failed cluster: 'stress' = its own plane, "
                               "set when it fails (normal to sigma'_min in tension, the "
