@@ -261,3 +261,68 @@ def test_jacobian_with_closure_law_and_own_planes_matches_finite_differences(law
             # smooth law pieces (no switch within +-h at this iterate): central
             # differences good to ~1e-7 of the column; 1e-5 margin as the smooth-law test
             assert np.max(np.abs(a[rows] - fd[rows])) <= 1e-5 * scale, (j, rows)
+
+
+# ------------------------------------------------------------------ scene keys
+def _scene(**rock):
+    from xlotkit.sim.scene import scene_from_dict
+
+    return scene_from_dict({
+        "model": "mdem", "geometry": {"domain_size": "4 m"},
+        "mesh": {"growth": 1.5, "wall_element_size": "0.1 m"},
+        "rock": rock,
+        "stresses": {"sigma_H": "35 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa"},
+        "schedule": {"phase": [{"kind": "pump", "rate": "100 l/min", "duration": "5 s"}]},
+    }, file="s.toml")
+
+
+def test_scene_closure_law_keys_reach_the_model():
+    from xlotkit.sim.coupling.build import RESIDUAL_APERTURE, build_model
+
+    cm, _ = build_model(_scene(closure_law="barton_bandis",
+                               joint_normal_stiffness="50 GPa/m", joint_max_closure="50 um",
+                               sealed_aperture="2 um"))
+    law = cm.mechanics.closure
+    assert law.kind == "barton_bandis" and law.normal_stiffness == pytest.approx(5e10)
+    assert law.max_closure == pytest.approx(5e-5)
+    assert law.sealed_aperture == pytest.approx(2e-6)
+    assert cm.residual_aperture == pytest.approx(5.2e-5)      # the zero-stress aperture
+    assert cm.mechanics.crack_planes is not None               # the default free path
+    cm, _ = build_model(_scene(closure_law="exponential", joint_reference_stress="4 MPa",
+                               joint_max_closure="30 um", crack_plane="edges"))
+    assert cm.mechanics.closure.reference_stress == pytest.approx(4e6)
+    assert cm.mechanics.closure.sealed_aperture == RESIDUAL_APERTURE
+    assert cm.mechanics.crack_planes is None
+    cm, _ = build_model(_scene())
+    assert not cm.mechanics.closure.nonlinear and cm.residual_aperture == RESIDUAL_APERTURE
+
+
+@pytest.mark.parametrize("rock, key, found", [
+    ({"closure_law": "barton_bandis", "joint_max_closure": "50 um"},
+     "rock.joint_normal_stiffness", "needs"),
+    ({"closure_law": "exponential", "joint_max_closure": "50 um",
+      "joint_reference_stress": "4 MPa", "joint_normal_stiffness": "50 GPa/m"},
+     "rock.joint_normal_stiffness", "not used"),
+    ({"sealed_aperture": "1 um"}, "rock.sealed_aperture", "not used"),
+    ({"joint_max_closure": "50 um"}, "rock.joint_max_closure", "not used"),
+    ({"closure_law": "bandis"}, "rock.closure_law", "unknown"),
+    ({"crack_plane": "free"}, "rock.crack_plane", "unknown"),
+])
+def test_scene_closure_law_keys_are_checked(rock, key, found):
+    with pytest.raises(InputError) as ei:
+        _scene(**rock)
+    assert ei.value.key == key and found in ei.value.message
+
+
+def test_closure_law_and_crack_plane_ask_for_the_2d_model():
+    from xlotkit.sim.scene import scene_from_dict
+
+    base = {"stresses": {"sigma_H": "35 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa"},
+            "schedule": {"phase": [{"kind": "pump", "rate": "100 l/min", "duration": "5 s"}]}}
+    assert scene_from_dict(base).resolved_model == "lumped"
+    sc = scene_from_dict({**base, "rock": {"closure_law": "exponential",
+                                           "joint_reference_stress": "4 MPa",
+                                           "joint_max_closure": "30 um"}})
+    assert sc.resolved_model == "mdem" and "rock.closure_law" in sc.two_d_reasons
+    sc = scene_from_dict({**base, "rock": {"crack_plane": "edges"}})
+    assert sc.resolved_model == "mdem" and "rock.crack_plane" in sc.two_d_reasons
