@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 
 from xlotkit import InputError
-from xlotkit.sim.coupling import CoupledControl, CoupledModel, CoupledState, CoupledStepper
+from xlotkit.sim.coupling import (
+    CoupledControl,
+    CoupledModel,
+    CoupledState,
+    CoupledStepper,
+)
 from xlotkit.sim.flow import (
     FlowModel,
     FlowState,
@@ -29,7 +34,11 @@ from xlotkit.sim.mechanics import (
     MechanicsModel,
     RockProperties,
 )
-from xlotkit.sim.mechanics.closure import CLOSURE_CAP, closure_of_stress, stress_of_closure
+from xlotkit.sim.mechanics.closure import (
+    CLOSURE_CAP,
+    closure_of_stress,
+    stress_of_closure,
+)
 from xlotkit.sim.mesh import borehole_mesh, rectangle_mesh
 
 E, NU = 10e9, 0.25
@@ -147,7 +156,7 @@ def test_a_joint_under_normal_load_closes_by_its_law(friction):
     """Uniform pore pressure p (Biot 1) lowers the effective normal stress on the joint
     to sigma_y - p; the joint's contacts close by the Barton-Bandis delta(sigma_y - p)."""
     sy = 20e6
-    mesh, m, row, s1 = _joint_block(BB, sy, friction)
+    _, m, row, s1 = _joint_block(BB, sy, friction)
     assert len(row) == 12 and m.joint[row].sum() == 24
     for p in (0.0, 5e6, 10e6, 15e6, 19e6):
         r = m.step(s1, pore_pressure=p, check_failure=False)

@@ -35,7 +35,8 @@ E, NU = 10e9, 0.25
 
 
 def _rock(**kw):
-    base = dict(young=E, poisson=NU, biot=1.0, tensile_strength=1e12, cohesion=1e12)
+    base = {"young": E, "poisson": NU, "biot": 1.0, "tensile_strength": 1e12,
+            "cohesion": 1e12}
     base.update(kw)
     return RockProperties(**base)
 

@@ -66,7 +66,6 @@ from xlotkit.sim.mechanics.config import (
 )
 from xlotkit.sim.mechanics.failure import (
     crack_tip_margin,
-    principal_stresses,
     crack_tip_toughness,
     mohr_coulomb_margin,
     strength_fields,
@@ -482,13 +481,10 @@ class MechanicsModel:
             eff = np.asarray(effective_stress, dtype=float)[cf]
             nrm = tensile_plane_normal(eff)
             ten = np.asarray(tensile, dtype=bool)[free]
-            s1, s2, _ = principal_stresses(eff)
-            T = self.strengths(cluster_state)[0][cf]
             for k, c in enumerate(cf):
-                if ten[k] and (s2[k] >= 0.0 or s1[k] - s2[k] < T[k]):
-                    # the stress did not open it (no tension in its average: a tip
-                    # cluster failed on the toughness of the crack beside it) or has no
-                    # direction: continue the cracks next to it, if any
+                if ten[k]:
+                    # at a crack (it shares a node with cracked clusters): the crack's
+                    # line, the mean plane of those clusters (planes module docstring)
                     ax = self._nearby_axis(int(c), cluster_state, out)
                     if np.any(ax != 0.0):
                         nrm[k] = ax
