@@ -262,3 +262,20 @@ def test_crack_planes_config_is_checked():
     m, s0 = _cell(_rock(), 20e6, 10e6, 0.0)
     with pytest.raises(InputError, match="plane_normal"):
         m.fail_clusters(s0, [0], plane_normal=np.zeros(2))
+
+
+def test_tensile_failure_at_a_crack_continues_its_line():
+    """A cluster failing in tension beside a tensile crack takes that crack's plane, not
+    its own stress's (a tip cluster's average stress depends on where it sits in the tip
+    field); a shear crack beside it does not count, and away from cracks the stress
+    decides."""
+    sx, sy, sxy = 30e6, 10e6, 6e6
+    m, s0 = _cell(_rock(), sx, sy, sxy)
+    w, v = _eig(sx, sy, sxy, 0.0)
+    along = np.array([0.6, 0.8])
+    eff = np.tile([sx, sy, sxy], (2, 1)).astype(float)
+    for state, expect in ((FAILED_TENSILE, along), (FAILED_SHEAR, v[:, 0])):
+        s1 = m.fail_clusters(s0, [0], state, plane_normal=along)
+        cn = m.set_crack_planes(np.array([1]), np.array([True]), eff,
+                                np.asarray(s1.cluster_state), np.asarray(s1.crack_normal))
+        assert abs(abs(cn[1] @ expect) - 1.0) < 1e-12, state

@@ -8,9 +8,9 @@ Which plane (set once, when the cluster fails; see docs/mechanics.md, "Crack pla
 * tensile failure away from any crack (:func:`tensile_plane_normal`): the plane normal to
   the minimum effective principal stress ``sigma'_min`` of the cluster at failure, the
   plane a mode-I crack opens on (a crack starting at the wall: radial, along sigma_H).
-* tensile failure at a crack (the cluster shares a node with cracked clusters: a crack
-  tip extending, or a cluster beside the faces): the crack's line there, the mean plane
-  of those clusters (:func:`mean_axis`). Why not its own stress: a tip cluster's average
+* tensile failure at a crack (the cluster shares a node with clusters failed in tension:
+  a crack tip extending, or a cluster beside the faces): the crack's line there, the
+  mean plane of those clusters (:func:`mean_axis`; shear cracks beside it do not count). Why not its own stress: a tip cluster's average
   stress depends on where it sits in the tip field (beside the crack's line at an angle
   ``theta`` the principal directions of the mode-I field turn by about ``theta / 2``),
   and on a lattice the path steps sideways: on the standard scene's free path the planes

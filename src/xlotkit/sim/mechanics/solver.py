@@ -485,7 +485,7 @@ class MechanicsModel:
                 if ten[k]:
                     # at a crack (it shares a node with cracked clusters): the crack's
                     # line, the mean plane of those clusters (planes module docstring)
-                    ax = self._nearby_axis(int(c), cluster_state, out)
+                    ax = self._nearby_axis(int(c), cluster_state, out, mode_one=True)
                     if np.any(ax != 0.0):
                         nrm[k] = ax
             sh = ~ten
@@ -498,16 +498,20 @@ class MechanicsModel:
         self._apply_planes(cf, nrm, ~np.asarray(tensile, dtype=bool)[free])
         return out
 
-    def _nearby_axis(self, c: int, cluster_state: np.ndarray,
-                     crack_normal: np.ndarray) -> np.ndarray:
+    def _nearby_axis(self, c: int, cluster_state: np.ndarray, crack_normal: np.ndarray,
+                     mode_one: bool = False) -> np.ndarray:
         """Mean plane normal of the cracked clusters sharing a node with ``c`` (zeros:
-        none), the reference of a shear failure's conjugate plane."""
+        none): the crack line a tensile failure continues (``mode_one``: of the clusters
+        failed in tension or preset only; a shear crack beside a mode-I crack is not its
+        line, and its plane, ~60 deg off, turned the line of the standard scene's crack
+        by up to 33 deg), the reference of a shear failure's conjugate plane (all)."""
         if self._touch is None:
             inc = self.cracks.incidence
             self._touch = (inc @ inc.T).tocsr()
         row = self._touch.indices[self._touch.indptr[c]:self._touch.indptr[c + 1]]
         cs = np.asarray(cluster_state)[row]
-        nb = row[(cs != INTACT) & (cs != INTERFACE)]
+        nb = row[((cs == FAILED_TENSILE) | (cs == PRESET)) if mode_one
+                 else ((cs != INTACT) & (cs != INTERFACE))]
         n = np.asarray(crack_normal)[nb]
         n = n[np.any(n != 0.0, axis=1)]
         return mean_axis(n) if len(n) else np.zeros(2)
