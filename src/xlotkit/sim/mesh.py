@@ -209,8 +209,6 @@ class FractureBand:
 
     The band is centred on the line through the hole centre at ``azimuth`` (radians,
     counter-clockwise from +x) and covers both wings out to ``length`` from the centre.
-    The hole wall's nodes are placed so that the axis meets the wall in the middle of an
-    edge (an even number of equal wall edges).
 
     Parameters
     ----------
@@ -224,8 +222,9 @@ class FractureBand:
         Half-length of the band measured from the hole centre [m].
     strip : bool
         Lay a *crack strip* along the band axis: two rows of nodes at ``+-sqrt(3)/4 h``
-        either side of the axis, staggered by half a spacing, from the hole wall to
-        ``length``; the spacing ``h`` follows the generator's size (graded from the
+        either side of the axis, staggered by half a spacing, from the hole wall (whose
+        nodes are then placed so that the axis meets the wall in the middle of an edge)
+        to ``length``; the spacing ``h`` follows the generator's size (graded from the
         wall edge length up to the band's ``h``). Every strip triangle straddles the axis,
         so a crack along it runs through a chain of triangles and never through a node.
         Only the strip triangles get the band marker (the band still sets the
@@ -645,13 +644,9 @@ def borehole_mesh(
             if k == 0:
                 # exact circle for the wall
                 ang = np.arctan2(pts[:, 1], pts[:, 0])
-                if band is not None:
+                if band is not None and band.strip:
                     # an even number of equal wall edges, the band axis through the middle
-                    # of one on either side: one wall cluster sits on the azimuth of the
-                    # largest hoop tension (with a wall node there, the two clusters
-                    # beside it average the hoop stress over an edge either side, and the
-                    # wall breaks down later: 39.3 against 33.5 MPa on the standard
-                    # scene's 12-segment wall); the crack strip starts on that edge
+                    # of one on either side (the crack strip starts on that edge)
                     n_w = len(ang) + len(ang) % 2
                     ang = band.azimuth + (np.arange(n_w) + 0.5) * 2.0 * math.pi / n_w
                 pts = radius * np.column_stack([np.cos(ang), np.sin(ang)])
