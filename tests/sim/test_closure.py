@@ -335,3 +335,4 @@ def test_closure_law_and_crack_plane_ask_for_the_2d_model():
     assert sc.resolved_model == "mdem" and "rock.closure_law" in sc.two_d_reasons
     sc = scene_from_dict({**base, "rock": {"crack_plane": "edges"}})
     assert sc.resolved_model == "mdem" and "rock.crack_plane" in sc.two_d_reasons
+

@@ -279,3 +279,27 @@ def test_tensile_failure_at_a_crack_continues_its_line():
         cn = m.set_crack_planes(np.array([1]), np.array([True]), eff,
                                 np.asarray(s1.cluster_state), np.asarray(s1.crack_normal))
         assert abs(abs(cn[1] @ expect) - 1.0) < 1e-12, state
+
+
+def test_band_centred_wall_puts_a_wall_edge_on_the_axis():
+    from xlotkit.sim.scene import scene_from_dict
+
+    d = {"model": "mdem", "geometry": {"domain_size": "4 m"},
+         "mesh": {"growth": 1.5, "wall_element_size": "0.1 m", "fracture_band": True,
+                  "band_width": "0.4 m", "band_length": "1.5 m", "band_centred_wall": True},
+         "stresses": {"sigma_H": "35 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa",
+                      "sigma_H_azimuth": "30 deg"},
+         "schedule": {"phase": [{"kind": "pump", "rate": "100 l/min", "duration": "5 s"}]}}
+    from xlotkit.sim.coupling.build import build_model
+
+    mesh = build_model(scene_from_dict(d))[0].mesh
+    wall = mesh.nodes[mesh.hole_nodes]
+    ang = np.degrees(np.arctan2(wall[:, 1], wall[:, 0]))
+    step = 360.0 / len(ang)
+    # no wall node on the axis; two of them half an edge either side of it
+    off = np.abs((ang - 30.0 + 180.0) % 360.0 - 180.0)
+    assert np.sort(off)[:2] == pytest.approx([0.5 * step] * 2, abs=1e-9)
+    d["mesh"]["fracture_band"] = False
+    with pytest.raises(InputError) as ei:
+        scene_from_dict(d)
+    assert ei.value.key == "mesh.band_centred_wall"

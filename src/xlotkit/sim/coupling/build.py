@@ -57,7 +57,8 @@ def _scene_mesh(scene: Scene) -> Mesh:
     if mo.fracture_band:
         h_band = mo.band_element_size or h_wall or 2 * math.pi * geo.hole_radius / 64
         band = FractureBand(math.radians(scene.stresses.sigma_H_azimuth), mo.band_width,
-                            h_band, mo.band_length, strip=bool(mo.band_strip))
+                            h_band, mo.band_length, strip=bool(mo.band_strip),
+                            centred_wall=bool(mo.band_centred_wall))
     try:
         return borehole_mesh(size=geo.domain_size, radius=geo.hole_radius, growth=mo.growth,
                              h_wall=h_wall, h_max=mo.max_element_size, fracture_band=band,

@@ -134,6 +134,9 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "band_strip": _k("bool", doc="lay a crack strip along the band axis: two staggered "
                                      "node rows, every strip triangle straddling the axis "
                                      "(only they are band clusters)"),
+        "band_centred_wall": _k("bool", doc="place the hole wall's nodes so that the band "
+                                            "axis meets the wall in the middle of an edge "
+                                            "(always so with band_strip)"),
         "jitter": _k("dimensionless", "", 0.0, 0.3,
                      doc="random node displacement, fraction of the local size"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,

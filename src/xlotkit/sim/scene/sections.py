@@ -117,12 +117,17 @@ class MeshOptions:
     band_element_size: float | None = None
     band_length: float = 10.0
     band_strip: bool = False
+    band_centred_wall: bool = False
     jitter: float = 0.0
     seed: int | None = None
     file: str | None = None
 
     def __post_init__(self) -> None:
         _validate(self, self.section)
+        if self.band_centred_wall and not self.fracture_band:
+            raise InputError("mesh.band_centred_wall places the wall by the fracture band, "
+                             "which is off", key="mesh.band_centred_wall",
+                             expected="mesh.fracture_band = true, or no band_centred_wall")
 
 
 @dataclass(frozen=True, kw_only=True)
