@@ -174,8 +174,9 @@ def test_2d_demo_path_simulates_reads_picks_and_reports(tmp_path):
 
 @pytest.mark.slow
 def test_standard_2d_demo_recovers_the_realised_sigma_h(tmp_path):
-    """`xlotkit demo` (the standard 2D scene): the XLOT signature and the closure picks.
-    Measured (docs/benchmarks.md): 50 s on the shared 2-core machine."""
+    """`xlotkit demo` (the standard 2D scene, on the free path: every failed cluster its
+    own crack plane, no strip, no preset plane): the XLOT signature and the closure picks.
+    Measured: 396-741 s on the shared 2-core machine (docs/coupling.md, "The free path")."""
     r = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "demo")])
     assert r.exit_code == 0, r.output
     d = tmp_path / "demo"
@@ -183,25 +184,29 @@ def test_standard_2d_demo_recovers_the_realised_sigma_h(tmp_path):
     assert summary["model"] == "2d" and summary["fcp_reference"] == "sigma_h_realised"
     truth = summary["truth_bar"]
     # the realised sigma_h is the in-situ normal stress over the crack: the far field plus
-    # the hole's Kirsch concentration near the wall (measured 300.28 bar)
+    # the hole's Kirsch concentration near the wall (measured 300.30 bar)
     assert truth["sigma_h"] < truth["sigma_h_realised"] < truth["sigma_h"] * 1.01
-    # issue 6: pressurisation slope within 2 % of Q / C_total (measured -1.1 %)
+    # issue 6: pressurisation slope within 2 % of Q / C_total (measured -1.2 %)
     assert abs(summary["pressurisation"]["error_percent"]) < 2.0
-    # issue 6: the flowback (system stiffness) FCP within 3 % of the realised sigma_h in
-    # both cycles (measured -0.01 % / +0.02 % and -0.22 % / -0.16 %)
+    # issue 17: on the free path the flowback (system stiffness) FCP within 1 % of the
+    # realised sigma_h in both cycles (measured -0.69 % / -0.66 % and -0.85 % / -0.80 %)
     for cyc in ("cycle 1", "cycle 2"):
         for m in ("flowback_sqrt_p", "flowback_p_v"):
             err = summary["fcp_error_percent"][cyc][m]
-            assert err is not None and abs(err) < 3.0, (cyc, m, err)
+            assert err is not None and abs(err) < 1.0, (cyc, m, err)
     st = summary["stress"]
-    assert abs(st["sigma_h_bar"] - truth["sigma_h_realised"]) < 0.03 * truth["sigma_h_realised"]
-    # the XLOT signature in cycle 1: breakdown above the propagation and shut-in pressures,
-    # which stay above the closure (measured FBP 334.66, FPP 307.97, ISIP 307.07 bar)
+    assert abs(st["sigma_h_bar"] - truth["sigma_h_realised"]) < 0.01 * truth["sigma_h_realised"]
+    # the XLOT signature in cycle 1: the crack starts (the model's first failure, measured
+    # 329.13 bar, Hubbert-Willis 330) and grows stably to the breakdown at the peak of the
+    # record (measured 342.04 bar), above the shut-in pressure, which stays above closure
     picks = json.loads((d / "interpretation" / "picks.json").read_text())
     c1 = picks["cycles"][0]
-    assert c1["fbp_bar"] > c1["fpp_bar"] > truth["sigma_h_realised"]
+    log = read_log(d / "simulation" / "synthetic_log.csv")
+    in_c1 = (log.t >= c1["t_start_s"]) & (log.t <= c1["t_end_s"])
+    # (the pick is on the smoothed record: measured 0.87 bar below the raw maximum)
+    assert c1["fbp_bar"] == pytest.approx(float(log.pressure[in_c1].max()) / 1e5, abs=1.5)
+    assert c1["fbp_bar"] > truth["fbp"] and c1["lop_bar"] < truth["fbp"] + 2.0
     assert c1["fbp_bar"] > c1["isip_bar"] > truth["sigma_h_realised"]
-    assert c1["fbp_bar"] == pytest.approx(truth["fbp"], abs=2.0)    # 1 s sampling, 2 bar
 
 
 def test_a_redirected_demo_names_its_folder_when_it_starts(tmp_path):

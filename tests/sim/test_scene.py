@@ -216,8 +216,10 @@ def test_standard_2d_scene_is_the_example_file():
     assert pkg.read_text() == (EX / "scene_2d_standard.toml").read_text()
     sc = standard_2d_scene()
     assert sc.resolved_model == "mdem"
-    assert sc.effects.fracture_plane and sc.mesh.band_strip and sc.rock.toughness == 1e6
-    assert "effects.fracture_plane" in sc.two_d_reasons
+    # the free path: no crack strip, no preset plane; every failed cluster its own plane
+    assert not sc.effects.fracture_plane and not sc.mesh.band_strip
+    assert sc.mesh.fracture_band and sc.rock.crack_plane == "stress"
+    assert sc.rock.closure_law == "smooth" and sc.rock.toughness == 1e6
 
 
 def test_fracture_plane_and_toughness_are_checked():

@@ -231,6 +231,10 @@ class FractureBand:
         so a crack along it runs through a chain of triangles and never through a node.
         Only the strip triangles get the band marker (the band still sets the
         refinement).
+    centred_wall : bool
+        Place the hole wall's nodes so that the axis meets the wall in the middle of an
+        edge (an even number of equal wall edges), as the strip does: the wall cluster on
+        the axis then straddles it instead of two clusters meeting at a node there.
     """
 
     azimuth: float
@@ -238,6 +242,7 @@ class FractureBand:
     h: float
     length: float
     strip: bool = False
+    centred_wall: bool = False
 
     def __post_init__(self) -> None:
         for key in ("width", "h", "length"):
@@ -646,7 +651,7 @@ def borehole_mesh(
             if k == 0:
                 # exact circle for the wall
                 ang = np.arctan2(pts[:, 1], pts[:, 0])
-                if band is not None and band.strip:
+                if band is not None and (band.strip or band.centred_wall):
                     # an even number of equal wall edges, the band axis through the middle
                     # of one on either side (the crack strip starts on that edge)
                     n_w = len(ang) + len(ang) % 2

@@ -23,6 +23,8 @@ from xlotkit.sim.flow import (
 )
 from xlotkit.sim.mechanics import (
     BoundaryConditions,
+    ClosureLaw,
+    CrackPlanes,
     FracturePlane,
     InSituStress,
     InterfacePlane,
@@ -55,7 +57,8 @@ def _scene_mesh(scene: Scene) -> Mesh:
     if mo.fracture_band:
         h_band = mo.band_element_size or h_wall or 2 * math.pi * geo.hole_radius / 64
         band = FractureBand(math.radians(scene.stresses.sigma_H_azimuth), mo.band_width,
-                            h_band, scene.band_length, strip=bool(mo.band_strip))
+                            h_band, scene.band_length, strip=bool(mo.band_strip),
+                            centred_wall=bool(mo.band_centred_wall))
     try:
         return borehole_mesh(size=geo.domain_size, radius=geo.hole_radius, growth=mo.growth,
                              h_wall=h_wall, h_max=mo.max_element_size, fracture_band=band,
@@ -140,8 +143,16 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     if eff.fracture_plane:
         fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
                                friction_angle_deg=rk.fracture_friction_angle)
+    cplanes = (CrackPlanes(friction_angle_deg=rk.fracture_friction_angle)
+               if rk.crack_plane == "stress" else None)
+    closure = ClosureLaw(rk.closure_law, normal_stiffness=rk.joint_normal_stiffness,
+                         max_closure=rk.joint_max_closure,
+                         reference_stress=rk.joint_reference_stress,
+                         sealed_aperture=(RESIDUAL_APERTURE if rk.sealed_aperture is None
+                                          else rk.sealed_aperture))
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes, fracture_plane=fplane)
+                          interfaces=planes, fracture_plane=fplane, crack_planes=cplanes,
+                          closure=closure)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)
@@ -153,7 +164,10 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     h = geo.segment_height
     extra = max(total_well_compliance(scene) - float(flow.well_storage), 0.0) / h
     psi = (math.radians(rk.dilation_angle) if eff.shear_dilation else None)
-    model = CoupledModel(mech, flow, residual_aperture=RESIDUAL_APERTURE,
+    # the closed crack's aperture: the smooth law's constant one, or the closure law's at
+    # zero effective stress (the gap tolerance of the Newton is a fraction of it)
+    w_res = closure.zero_stress_aperture if closure.nonlinear else RESIDUAL_APERTURE
+    model = CoupledModel(mech, flow, residual_aperture=w_res,
                          well_compliance=extra, check_storage=eff.poroelastic,
                          dilation_angle=psi)
     return model, pw0

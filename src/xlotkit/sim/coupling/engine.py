@@ -179,7 +179,7 @@ class Stepping:
 
 _MECH_FIELDS = ("displacement", "pore_pressure", "stress", "effective_stress",
                 "cluster_state", "contact_status", "normal_force", "shear_force", "gap",
-                "slip", "ref_normal", "ref_shear")
+                "slip", "ref_normal", "ref_shear", "crack_normal")
 _ROW_KEYS = ("t", "bottomhole_pressure", "well_pressure", "surface_pressure",
              "fracture_pressure", "pump_rate", "return_rate", "pumped_volume",
              "returned_volume", "leakoff_volume", "fracture_length", "fracture_volume",
@@ -276,12 +276,12 @@ class MDEMEngine:
     def _well_rate(self, t: float, p_w: float):
         """``(Q, dQ/dp_w)`` of the phase in force [m^3/s at surface density, per segment]
         (:meth:`xlotkit.sim.well.PhaseDrive.rate`). A Newton iterate at a borehole
-        pressure no fluid column can stand under (the column's density blows up) gets a
-        non-finite rate, which the Newton treats as a wild update (it backs off, or the
-        step is cut), not a failure of the run."""
+        pressure no fluid column can stand under (the column's density blows up) or at
+        which the choke's column overflows gets a non-finite rate, which the Newton treats
+        as a wild update (it backs off, or the step is cut), not a failure of the run."""
         try:
             return self._drive.rate(t, p_w)
-        except ColumnBlowUp:
+        except (ColumnBlowUp, OverflowError):
             return math.nan, math.nan
 
     def _surface(self, p_bh: float, rate: float) -> float:
@@ -580,21 +580,25 @@ class MDEMEngine:
     # ------------------------------------------------------------------ fields
     def snapshot(self) -> Snapshot:
         """Fields now: displacement (nodes); pressure, permeability, aperture, stress,
-        failed state (triangles)."""
+        failed state, crack plane (unit normal ``crack_normal`` and direction
+        ``crack_azimuth`` [deg from x], nan where a cluster has none) (triangles)."""
         st = self.stepper.state
         cm = self.cm
         ms = st.mechanics
-        gap = np.zeros((cm.n_cells, 3)) if ms is None else np.asarray(ms.gap)
-        k, _, wn, _ = cm.crack_permeability(st.cluster_state, gap,
+        k, _, wn, _ = cm.crack_permeability(st.cluster_state, cm.contact_gap(st),
                                             None if ms is None else ms.slip)
         u = np.asarray(st.displacement) - cm.u0.reshape(-1, 2)
+        cn = (np.zeros((cm.n_cells, 2)) if ms is None
+              else np.asarray(ms.crack_normal, dtype=float))
         return Snapshot(time=st.t, points=cm.mesh.nodes, triangles=cm.mesh.triangles,
                         point_data={"displacement": u},
                         cell_data={"pressure": np.asarray(st.p),
                                    "permeability": np.asarray(k, dtype=float),
                                    "aperture": np.asarray(wn, dtype=float),
                                    "stress": cm.stress(st),
-                                   "failed": np.asarray(st.cluster_state, dtype=np.int64)})
+                                   "failed": np.asarray(st.cluster_state, dtype=np.int64),
+                                   "crack_normal": cn,
+                                   "crack_azimuth": cm.mechanics.plane_azimuth(cn)})
 
     # ------------------------------------------------------------------ checkpoint
     def state(self) -> dict[str, Any]:

@@ -80,6 +80,8 @@ from xlotkit.sim.flow.fracture import (
     crack_permeability,
     crack_permeability_derivative,
     hydraulic_aperture,
+    sealing_aperture,
+    sealing_aperture_derivative,
 )
 from xlotkit.sim.mechanics import (
     FAILED_SHEAR,
@@ -260,6 +262,8 @@ class Structure:
     volume_offset : ndarray (n_c,) [m^3]
     failure_time : ndarray (n_c,) [s]
     failure_volume : ndarray (n_c,) [m^3]
+    crack_normal : ndarray (n_c, 2), optional
+        Crack plane of each failed cluster (as :class:`MechanicsState`); None = zeros.
     """
 
     cluster_state: np.ndarray
@@ -269,11 +273,14 @@ class Structure:
     volume_offset: np.ndarray
     failure_time: np.ndarray
     failure_volume: np.ndarray
+    crack_normal: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "cluster_state", _ro(self.cluster_state, np.int64))
+        if self.crack_normal is None:
+            object.__setattr__(self, "crack_normal", np.zeros((len(self.cluster_state), 2)))
         for k in ("ref_normal", "ref_shear", "slip", "volume_offset", "failure_time",
-                  "failure_volume"):
+                  "failure_volume", "crack_normal"):
             object.__setattr__(self, k, _ro(getattr(self, k)))
 
 
@@ -501,6 +508,7 @@ class CoupledModel:
         """
         m = self.mechanics
         ms = m.initial_state(p_w) if mechanics_state is None else mechanics_state
+        m.sync_planes(ms.cluster_state, ms.crack_normal)
         self.mech_state0 = ms
         self.u0 = np.asarray(ms.displacement, dtype=float).reshape(-1).copy()
         self.p0 = np.asarray(ms.pore_pressure, dtype=float).copy()
@@ -539,7 +547,8 @@ class CoupledModel:
         """The contact/failure history of a state as a :class:`Structure`."""
         ms = state.mechanics if state.mechanics is not None else self.mech_state0
         return Structure(ms.cluster_state, ms.ref_normal, ms.ref_shear, ms.slip,
-                         state.volume_offset, state.failure_time, state.failure_volume)
+                         state.volume_offset, state.failure_time, state.failure_volume,
+                         ms.crack_normal)
 
     def coefficients(self, cluster_state: np.ndarray) -> np.ndarray:
         """Pressure coefficient of each cluster: ``alpha`` intact, 1 otherwise, (n_c,)."""
@@ -588,7 +597,8 @@ class CoupledModel:
         ms = self.mechanics._make_state(
             np.asarray(s.displacement), np.array(structure.cluster_state),
             np.array(structure.ref_normal), np.array(structure.ref_shear),
-            np.array(structure.slip), np.array(s.p), s.p_w, res.response)
+            np.array(structure.slip), np.array(s.p), s.p_w, res.response,
+            np.array(structure.crack_normal))
         return CoupledState(s.displacement, s.flow, s.applied_load, mechanics=ms,
                             volume_offset=structure.volume_offset,
                             failure_time=structure.failure_time,
@@ -602,13 +612,18 @@ class CoupledModel:
 
         The hydraulic aperture of a failed cluster is ``w_res + w_n`` and, with a
         :attr:`dilation_angle` and ``slip`` given, ``+ tan(psi) max_j |u_s,j|``
-        (:func:`~xlotkit.sim.flow.fracture.hydraulic_aperture`).
+        (:func:`~xlotkit.sim.flow.fracture.hydraulic_aperture`). With a closure law
+        (``mechanics.closure``) the ``w_res + w_n`` part is
+        :func:`~xlotkit.sim.flow.fracture.sealing_aperture` of the largest signed gap of
+        the cluster's joint contacts (``mechanics.joint``): it falls below its
+        zero-stress value as the crack closes, down to the sealed aperture.
 
         Parameters
         ----------
         cluster_state : ndarray of int (m,)
         gap : ndarray (m, 3) [m]
-            Contact openings (0 for closed contacts and intact clusters).
+            Contact openings (0 for closed contacts and intact clusters); with a closure
+            law the signed gaps ``U_n - U_n^0`` (:meth:`contact_gap`).
         slip : ndarray (m, 3) [m], optional
             Committed contact slip; used only with a :attr:`dilation_angle`.
 
@@ -625,16 +640,45 @@ class CoupledModel:
         """
         failed = np.asarray(cluster_state) != INTACT
         km = self.flow.permeability
-        wn, act = crack_opening(np.where(failed[:, None], gap, 0.0))
         us = None
         if self.dilation_angle is not None and slip is not None:
             us = np.where(failed, np.max(np.abs(np.asarray(slip, dtype=float)), axis=1), 0.0)
-        wh = hydraulic_aperture(wn, self.residual_aperture, us,
-                                None if us is None else self.dilation_angle)
+        law = self.mechanics.closure
+        if law.nonlinear:
+            g = np.where(failed[:, None] & self.mechanics.joint,
+                         np.asarray(gap, dtype=float), -np.inf)
+            act = np.argmax(g, axis=1)
+            gmax = g[np.arange(len(g)), act]
+            gmax = np.where(np.isfinite(gmax), gmax, -float(law.max_closure))
+            w0 = sealing_aperture(gmax, law.max_closure, law.sealed_aperture)
+            live = failed & (sealing_aperture_derivative(gmax, law.max_closure) > 0)
+            wn = np.maximum(gmax, 0.0)
+            wh = hydraulic_aperture(np.zeros_like(w0), w0, us,
+                                    None if us is None else self.dilation_angle)
+        else:
+            wn, act = crack_opening(np.where(failed[:, None], gap, 0.0))
+            live = failed & (wn > 0)
+            wh = hydraulic_aperture(wn, self.residual_aperture, us,
+                                    None if us is None else self.dilation_angle)
         k = np.where(failed, crack_permeability(wh, km, self.length_scale), km)
-        dk = np.where(failed & (wn > 0), crack_permeability_derivative(wh, self.length_scale),
-                      0.0)
+        dk = np.where(live, crack_permeability_derivative(wh, self.length_scale), 0.0)
         return k, dk, np.where(failed, wn, 0.0), act
+
+    def contact_gap(self, state: CoupledState) -> np.ndarray:
+        """The gaps :meth:`crack_permeability` takes for a state, (m, 3) [m]: the
+        openings of ``state.mechanics.gap`` (smooth law) or the signed gaps
+        ``U_n - U_n^0`` of failed clusters' contacts (closure law; 0 when intact)."""
+        ms = state.mechanics
+        if ms is None:
+            return np.zeros((self.n_cells, 3))
+        if not self.mechanics.closure.nonlinear:
+            return np.asarray(ms.gap)
+        mech = self.mechanics
+        mech.sync_planes(ms.cluster_state, ms.crack_normal)
+        uc = np.asarray(state.displacement).reshape(-1)[mech.dofs]
+        un = np.einsum("cmi,ci->cm", mech.bn_c, uc)
+        failed = np.asarray(ms.cluster_state) != INTACT
+        return np.where(failed[:, None], un - np.asarray(ms.ref_normal), 0.0)
 
     # ---------------------------------------------------------------- residual
     def residual_and_jacobian(self, x: np.ndarray, old: CoupledState, dt: float,
@@ -722,8 +766,11 @@ class CoupledModel:
             # tolerance is 1e-14 of the absolute forces, a few ulps of the sums)
             force_scale = max(force_scale,
                               1e-4 * float(np.max(np.abs(self._fc0[failed]))))
-        # fracture permeability
-        gap = np.where(failed[:, None], np.maximum(Un - ref_n, 0.0), 0.0)
+        # fracture permeability: the openings (smooth law) or the signed gaps (closure
+        # law: a closed crack's hydraulic aperture follows its normal stress)
+        g_n = Un - ref_n
+        gap = np.where(failed[:, None],
+                       g_n if mech.closure.nonlinear else np.maximum(g_n, 0.0), 0.0)
         k, dk_dw, wn, act = self.crack_permeability(cs, gap, st.slip)
         kw: dict = dict(permeability=k, well_storage=self.well_storage)
         if undrained:
@@ -738,7 +785,7 @@ class CoupledModel:
             # mechanics tangent for the current statuses, the coupling blocks and the
             # flow, summed into the pattern of the present failed clusters
             pattern = self.layout.pattern(failed)
-            blocks = mech._tangent_blocks(cs, status, sgn, soft)
+            blocks = mech._tangent_blocks(cs, status, sgn, soft, mech.normal_stiffness(g_n))
             rho_dt = np.asarray(fr.d_residual_d_extra_volume)
             wr = self._wall_rows
             wall_row = (fr.d_residual_d_well_volume * self.height * self.f_wall[wr]
@@ -765,7 +812,7 @@ class CoupledModel:
                     Ru = np.where(floating, 0.0, Ru)
         elif failed.any():
             # the residual alone: the same floating rows (from the diagonal of K only)
-            kd = self._k_diagonal(cs, status, sgn, soft)
+            kd = self._k_diagonal(cs, status, sgn, soft, mech.normal_stiffness(g_n))
             floating = kd < 1e-6 * _median(kd)
             if floating.any():
                 Ru = np.where(floating, 0.0, Ru)
@@ -792,9 +839,9 @@ class CoupledModel:
             raise InputError("needs a residual with its Jacobian", key="res")
         cs = np.asarray(structure.cluster_state)
         failed = cs != INTACT
-        Un = res.response[3]
-        gap = np.where(failed[:, None],
-                       np.maximum(Un - np.asarray(structure.ref_normal), 0.0), 0.0)
+        g_n = res.response[3] - np.asarray(structure.ref_normal)
+        gap = np.where(failed[:, None], g_n if self.mechanics.closure.nonlinear
+                       else np.maximum(g_n, 0.0), 0.0)
         k, dk_dw, _, act = self.crack_permeability(cs, gap, structure.slip)
         if not np.any(dk_dw > 0):
             return res
@@ -802,10 +849,11 @@ class CoupledModel:
         add_crack_block(J, res.pattern, self._crack_entries(res.state.flow, k, dk_dw, act))
         return replace(res, jacobian=J)
 
-    def _k_diagonal(self, cs, status, sgn, soft) -> np.ndarray:
-        """Diagonal of the mechanics tangent on the displacement unknowns."""
+    def _k_diagonal(self, cs, status, sgn, soft, kn) -> np.ndarray:
+        """Diagonal of the mechanics tangent on the displacement unknowns (``kn`` the
+        contacts' tangent normal stiffness)."""
         mech = self.mechanics
-        blocks = mech._tangent_blocks(cs, status, sgn, soft)
+        blocks = mech._tangent_blocks(cs, status, sgn, soft, kn)
         d = np.bincount(mech.dofs.ravel(), weights=np.einsum("cii->ci", blocks).ravel(),
                         minlength=mech.n_dof)
         return d[self.free_dofs]

@@ -152,7 +152,7 @@ def law_status(model, res: CoupledResidual, st: Structure):
     the iterate of ``res``."""
     mech = model.mechanics
     Un, Us = res.response[3], res.response[4]
-    trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+    trial_n = mech.normal_force(Un - np.asarray(st.ref_normal))
     trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
     cap = mech.mu * np.maximum(-trial_n, 0.0)
     # (at the friction limit the slip branch, as the contact law's kernel says)
@@ -169,11 +169,12 @@ def branch_violation(model, res: CoupledResidual, st: Structure, fstat: np.ndarr
     held branch is the exact law's."""
     mech = model.mechanics
     Un, Us = res.response[3], res.response[4]
-    trial_n = mech.kn * (Un - np.asarray(st.ref_normal))
+    gap = Un - np.asarray(st.ref_normal)
+    trial_n = mech.normal_force(gap)
     trial_s = mech.ks * (Us - np.asarray(st.ref_shear))
     cap = mech.mu * np.maximum(-trial_n, 0.0)
-    v_open = np.maximum(-trial_n, 0.0) / mech.kn
-    v_closed = np.maximum(trial_n, 0.0) / mech.kn
+    v_open = np.maximum(-gap, 0.0)
+    v_closed = np.maximum(gap, 0.0)
     v_stick = np.maximum(np.abs(trial_s) - cap, 0.0) / mech.ks
     v_slip = np.maximum(cap - fsgn * trial_s, 0.0) / mech.ks
     return np.where(fstat == OPEN, v_open,

@@ -431,13 +431,16 @@ class CoupledStepper:
 
     # ---------------------------------------------------------------- failure
     def _fail(self, st: Structure, cand: np.ndarray, tensile: np.ndarray,
-              res: CoupledResidual, t_new: float) -> Structure:
-        """Switch clusters ``cand`` to failed at the iterate of ``res`` (forces continuous;
-        the pore volume as ``CoupledModel.failure_dilatation`` says)."""
+              res: CoupledResidual, t_new: float, effective_stress: np.ndarray) -> Structure:
+        """Switch clusters ``cand`` to failed at the iterate of ``res`` (crack planes from
+        their ``effective_stress`` there, :meth:`MechanicsModel.set_crack_planes`; forces
+        continuous; the pore volume as ``CoupledModel.failure_dilatation`` says)."""
         model = self.model
         mech = model.mechanics
         u = np.asarray(res.state.displacement)
         p = np.asarray(res.state.p)
+        cn = mech.set_crack_planes(cand, tensile[cand], effective_stress,
+                                   np.asarray(st.cluster_state), np.asarray(st.crack_normal))
         ref_n, ref_s = mech._contact_refs(cand, u, p, np.array(st.ref_normal),
                                           np.array(st.ref_shear))
         cs = np.array(st.cluster_state)
@@ -451,7 +454,7 @@ class CoupledStepper:
         ft[cand] = t_new
         fv = np.array(st.failure_volume)
         fv[cand] = np.asarray(res.state.flow.extra_pore_volume)[cand]
-        return Structure(cs, ref_n, ref_s, st.slip, voff, ft, fv)
+        return Structure(cs, ref_n, ref_s, st.slip, voff, ft, fv, cn)
 
     # ---------------------------------------------------------------- steps
     def step(self, dt: float, max_new_failures: int | None = None,
@@ -617,6 +620,9 @@ class CoupledStepper:
         mech = model.mechanics
         old = self.state
         st = model.structure_of(old)
+        # the contact rows of failed clusters follow the state's crack planes (a restored
+        # or retried state may carry others than the last ones built)
+        mech.sync_planes(st.cluster_state, st.crack_normal)
         x = model.x_of(old)
         if not undrained:
             x = self._extrapolate(x, old, dt, st)
@@ -686,7 +692,8 @@ class CoupledStepper:
             T_c, S_c = mech.strengths(cs)
             sev = np.maximum(mt / np.maximum(T_c, 1.0), ms / np.maximum(S_c, 1.0))[cand]
             cand = cand[np.argsort(-sev, kind="stable")][: int(ctl.failures_per_round)]
-            st = self._fail(st, cand, tens, res, old.t + h)
+            st = self._fail(st, cand, tens, res, old.t + h,
+                            np.asarray(trial.effective_stress))
             new_total += int(cand.size)
             self.counters.failure_rounds += 1
         fr = res.flow

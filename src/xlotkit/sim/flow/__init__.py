@@ -22,6 +22,8 @@ from xlotkit.sim.flow.fracture import (
     hydraulic_aperture,
     permeability_multiplier,
     permeability_multiplier_derivative,
+    sealing_aperture,
+    sealing_aperture_derivative,
     upscaled_permeability,
 )
 from xlotkit.sim.flow.model import (
@@ -73,5 +75,7 @@ __all__ = [
     "hydraulic_aperture",
     "permeability_multiplier",
     "permeability_multiplier_derivative",
+    "sealing_aperture",
+    "sealing_aperture_derivative",
     "upscaled_permeability",
 ]

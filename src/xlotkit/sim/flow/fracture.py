@@ -11,6 +11,11 @@ dilation only when the scene enables it)::
 
     w_h = w_res + max(w_n, 0) [+ tan(psi) |u_s|]                          [m]
 
+With a fracture closure law (:mod:`xlotkit.sim.mechanics.closure`) the closed crack's
+aperture falls with the effective normal stress instead: :func:`sealing_aperture`,
+``w_h = w_inf + max(V_m + g, 0)`` with ``g`` the signed contact gap (``-delta`` when closed
+by ``delta``), from ``w_inf + V_m`` at zero stress down to the sealed ``w_inf``.
+
 Parallel-plate ("cubic law") permeability of the crack (Eq. 4.2)::
 
     k_f = w_h^2 / 12                                                      [m^2]
@@ -50,6 +55,8 @@ __all__ = [
     "hydraulic_aperture",
     "permeability_multiplier",
     "permeability_multiplier_derivative",
+    "sealing_aperture",
+    "sealing_aperture_derivative",
     "upscaled_permeability",
 ]
 
@@ -86,6 +93,42 @@ def hydraulic_aperture(normal_opening, residual_aperture, shear_slip=None,
                              expected="[0, pi/2)")
         w = w + np.tan(psi) * np.abs(np.asarray(shear_slip, dtype=float))
     return w
+
+
+def sealing_aperture(gap, max_closure, sealed_aperture):
+    """Hydraulic aperture of a crack with a closure law, ``w_inf + max(V_m + g, 0)`` [m].
+
+    A crack at zero effective normal stress has the aperture ``w_0 = w_inf + V_m``; the
+    closure law closes it by ``delta(sigma'_n) < V_m`` (the contact gap is then
+    ``g = -delta``), so the aperture ``w_0 - delta`` falls towards the sealed ``w_inf`` as
+    the effective normal stress rises; an open crack (``g > 0``) has ``w_0 + g``.
+
+    Parameters
+    ----------
+    gap : array_like, shape (m,)
+        Signed normal gap ``g`` of the crack [m] (opening positive, closure negative).
+    max_closure : float
+        ``V_m > 0`` [m], the closure law's maximum closure.
+    sealed_aperture : float
+        ``w_inf >= 0`` [m], the aperture of a crack closed to ``V_m``.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        ``w_h`` [m].
+    """
+    vm = float(max_closure)
+    w_inf = float(sealed_aperture)
+    if not (np.isfinite(vm) and vm > 0):
+        raise InputError("must be finite and > 0", key="max_closure", expected="> 0")
+    if not (np.isfinite(w_inf) and w_inf >= 0):
+        raise InputError("must be finite and >= 0", key="sealed_aperture", expected=">= 0")
+    return w_inf + np.maximum(vm + np.asarray(gap, dtype=float), 0.0)
+
+
+def sealing_aperture_derivative(gap, max_closure):
+    """``d w_h / d g`` of :func:`sealing_aperture`: 1 until the crack is sealed, then 0."""
+    return np.where(float(max_closure) + np.asarray(gap, dtype=float) > 0.0, 1.0, 0.0)
 
 
 def cubic_law_permeability(hydraulic_aperture_):

@@ -5,8 +5,10 @@ Compression is positive in this package's public API (stresses, pressures, conta
 forces); SI units throughout.
 """
 
+from xlotkit.sim.mechanics.closure import CLOSURE_LAWS, ClosureLaw
 from xlotkit.sim.mechanics.config import (
     BoundaryConditions,
+    CrackPlanes,
     FracturePlane,
     InSituStress,
     InterfacePlane,
@@ -54,6 +56,9 @@ __all__ = [
     "TIP_TOUGHNESS_FACTOR",
     "BoundaryConditions",
     "BreakdownResult",
+    "CLOSURE_LAWS",
+    "ClosureLaw",
+    "CrackPlanes",
     "InSituStress",
     "FracturePlane",
     "InterfacePlane",

@@ -18,6 +18,7 @@ from xlotkit.errors import InputError
 
 __all__ = [
     "BoundaryConditions",
+    "CrackPlanes",
     "InSituStress",
     "InterfacePlane",
     "RockProperties",
@@ -296,6 +297,36 @@ class FracturePlane:
         if not math.isfinite(float(self.azimuth)):
             raise InputError("must be finite", key="fracture_plane.azimuth")
         _range(self, "friction_angle_deg", "fracture_plane", 0.0, 89.0)
+
+
+@dataclass(frozen=True)
+class CrackPlanes:
+    """Every cluster that fails carries its own crack plane (the free path).
+
+    When a cluster fails, its crack plane is set from its stress at that moment
+    (:mod:`xlotkit.sim.mechanics.planes`: normal to ``sigma'_min`` in tension, the
+    Mohr-Coulomb plane in shear) and kept; its contacts that cross the plane (through the
+    centroid) measure opening and sliding against the plane's normal (smooth joint, as
+    :class:`FracturePlane` does along a preset direction), and all three contacts slide
+    with ``friction_angle_deg`` (a tensile crack) or the rock's friction angle (a cluster
+    failed in shear, on its Mohr-Coulomb plane). Clusters of a :class:`FracturePlane` band and of
+    :class:`InterfacePlane` segments keep their own planes.
+
+    Without it (the former free path) a failed cluster's contacts keep the triangle's
+    sub-edge directions and the rock's friction angle: a crack then opens through oblique
+    contacts that also slide, and friction locks it open as the pressure falls
+    (docs/coupling.md, "A crack that closes at the minimum stress").
+
+    Parameters
+    ----------
+    friction_angle_deg : float
+        Friction angle of the faces of tensile cracks [deg], in [0, 89].
+    """
+
+    friction_angle_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        _range(self, "friction_angle_deg", "crack_planes", 0.0, 89.0)
 
 
 @dataclass(frozen=True)

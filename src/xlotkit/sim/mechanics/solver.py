@@ -54,8 +54,10 @@ from xlotkit.sim.mechanics.assembly import (
     cluster_dofs,
     edge_traction_load,
 )
+from xlotkit.sim.mechanics.closure import ClosureLaw, closure_of_stress, stress_of_closure
 from xlotkit.sim.mechanics.config import (
     BoundaryConditions,
+    CrackPlanes,
     FracturePlane,
     InSituStress,
     InterfacePlane,
@@ -72,6 +74,17 @@ from xlotkit.sim.mechanics.failure import (
 )
 from xlotkit.sim.mechanics.fronts import CrackFront, CrackFronts
 from xlotkit.sim.mechanics.kernels import contact_response, tangent_blocks
+from xlotkit.sim.mechanics.planes import (
+    choose_conjugate,
+    joint_lengths,
+    joint_operators,
+    mean_axis,
+    operator_stress,
+    plane_crossing,
+    plane_tangent,
+    shear_plane_normals,
+    tensile_plane_normal,
+)
 from xlotkit.sim.mechanics.states import (
     BONDED,
     FAILED_SHEAR,
@@ -140,6 +153,11 @@ class MechanicsState:
         Accumulated frictional slip of failed contacts.
     ref_normal, ref_shear : (n_c, 3) [m]
         Stress-free reference relative displacements of failed contacts (internal).
+    crack_normal : (n_c, 2)
+        Unit normal of each failed cluster's crack plane, set when it failed
+        (:class:`~xlotkit.sim.mechanics.config.CrackPlanes`; the preset direction for a
+        :class:`FracturePlane` cluster); zeros where there is none (intact, interface,
+        or failed without crack planes).
     """
 
     displacement: np.ndarray
@@ -155,6 +173,7 @@ class MechanicsState:
     slip: np.ndarray
     ref_normal: np.ndarray
     ref_shear: np.ndarray
+    crack_normal: np.ndarray
 
     @property
     def failed(self) -> np.ndarray:
@@ -212,6 +231,17 @@ class MechanicsModel:
     options : SolverOptions, optional
     fracture_plane : FracturePlane, optional
         Marked clusters that open as a smooth joint once failed.
+    crack_planes : CrackPlanes, optional
+        Every other cluster gets its own crack plane when it fails (the free path; see
+        :class:`CrackPlanes`). Default None: failed clusters keep their sub-edge contacts.
+    closure : ClosureLaw, optional
+        Normal law of closed crack contacts (:mod:`xlotkit.sim.mechanics.closure`);
+        default the smooth law (the contact's linear stiffness ``k_n``). A closure law acts
+        on the contacts that cross a crack plane (of :class:`CrackPlanes`, a
+        :class:`FracturePlane` or an :class:`InterfacePlane`), or on all three contacts of
+        a failed cluster without a plane; with the joint length ``l_m``
+        (:func:`~xlotkit.sim.mechanics.planes.joint_lengths`) a closed contact carries
+        ``F_n = -l_m sigma(delta)``.
 
     Notes
     -----
@@ -228,6 +258,8 @@ class MechanicsModel:
         interfaces: Sequence[InterfacePlane] = (),
         options: SolverOptions | None = None,
         fracture_plane: FracturePlane | None = None,
+        crack_planes: CrackPlanes | None = None,
+        closure: ClosureLaw | None = None,
     ) -> None:
         if not isinstance(mesh, Mesh):
             raise InputError("expected a Mesh", key="mesh")
@@ -270,6 +302,8 @@ class MechanicsModel:
         # contact directions used once a cluster is failed (interfaces override some)
         self.c_normal = g.normal.copy()
         self.c_shear = g.shear.copy()
+        # contacts on a crack plane (where a closure law acts) and their joint lengths
+        self.joint = np.zeros((nc, 3), dtype=bool)
         self.interface_mask = np.zeros(nc, dtype=bool)
         for plane in self.interfaces:
             self._add_interface(plane)
@@ -277,13 +311,32 @@ class MechanicsModel:
         # failure come from the cluster stress, as for interfaces)
         self.fracture_plane = fracture_plane
         self.joint_mask = np.zeros(nc, dtype=bool)
+        self._preset_normal = np.zeros(2)
         if fracture_plane is not None:
             self._add_fracture_plane(fracture_plane)
+        if crack_planes is not None and not isinstance(crack_planes, CrackPlanes):
+            raise InputError("expected CrackPlanes or None", key="crack_planes")
+        self.closure = ClosureLaw() if closure is None else closure
+        if not isinstance(self.closure, ClosureLaw):
+            raise InputError("expected a ClosureLaw", key="closure")
+        # clusters that get their own crack plane when they fail (the free path)
+        self.crack_planes = crack_planes
+        self.plane_free = ((~self.interface_mask & ~self.joint_mask) if crack_planes is not None
+                           else np.zeros(nc, dtype=bool))
+        if crack_planes is not None:
+            self.mu[self.plane_free, :] = math.tan(math.radians(crack_planes.friction_angle_deg))
+        else:
+            # no planes: a failed cluster's crack is in all three of its contacts
+            self.joint[~self.interface_mask & ~self.joint_mask] = True
+        # normals the contact rows of plane_free clusters were last built with (sync_planes)
+        self._plane_applied = np.zeros((nc, 2))
+        self._touch: sp.csr_matrix | None = None
         self.bn_c = mdem._operators(self.c_normal)
         # shear relative displacement as in DEM: t . (u_j - u_i). (Measuring it against the
         # cluster's CST rotation was tried: inside a cracked cluster that rotation is
         # polluted by the opening and stiffened a pressurised crack; see docs.)
         self.bs_c = mdem._operators(self.c_shear)
+        self.ell = joint_lengths(g.area, g.dx, self.c_normal, self.joint)
         # initial effective (Biot) stress, tension positive, and its contact forces
         s = stress
         sig0 = np.array([s.sigma_x, s.sigma_y, s.sigma_xy])
@@ -321,6 +374,7 @@ class MechanicsModel:
             sgn = np.sign(sj[crossing])[:, None]  # normal oriented from node i to node j
             self.c_normal[cc, m] = sgn * ndir
             self.c_shear[cc, m] = sgn * tdir
+            self.joint[cc, m] = True
             self.mu[ci, m] = mu
 
     def _add_fracture_plane(self, fp: FracturePlane) -> None:
@@ -330,6 +384,7 @@ class MechanicsModel:
         ci = np.flatnonzero((np.asarray(mesh.triangle_markers) == fp.marker)
                             & ~self.interface_mask)
         self.joint_mask[ci] = True
+        self._preset_normal = ndir
         # side of each node of the line through the cluster's centroid along the plane
         side = (mesh.nodes[mesh.triangles[ci]] - mesh.centroids[ci, None, :]) @ ndir
         for m, (i, j) in enumerate(mdem.CONTACT_NODES):
@@ -338,6 +393,7 @@ class MechanicsModel:
             sgn = np.sign(side[crossing, j])[:, None]  # normal from node i's side to j's
             self.c_normal[cc, m] = sgn * ndir
             self.c_shear[cc, m] = sgn * tdir
+            self.joint[cc, m] = True
         self.mu[ci, :] = math.tan(math.radians(fp.friction_angle_deg))
 
     def _setup_boundary(self) -> None:
@@ -377,6 +433,181 @@ class MechanicsModel:
         self.keep = keep
         self.free = free
 
+    # ------------------------------------------------------------------ crack planes
+    def set_crack_planes(self, clusters: np.ndarray, tensile: np.ndarray,
+                         effective_stress: np.ndarray, cluster_state: np.ndarray,
+                         crack_normal: np.ndarray,
+                         plane_normal: np.ndarray | None = None) -> np.ndarray:
+        """Crack planes of clusters about to fail, applied to their contacts.
+
+        Call before the clusters' contact references are set (:meth:`_contact_refs`) and
+        before ``cluster_state`` marks them failed.
+
+        Parameters
+        ----------
+        clusters : ndarray of int (k,)
+            The clusters that fail now.
+        tensile : ndarray of bool (k,)
+            Tensile (True) or shear failure of each.
+        effective_stress : ndarray (n_c, 3)
+            Terzaghi effective stress at failure [Pa], compression positive.
+        cluster_state : ndarray of int (n_c,)
+            States before these failures (which neighbours are cracked already).
+        crack_normal : ndarray (n_c, 2)
+            Crack planes so far.
+        plane_normal : ndarray (2,) or (k, 2), optional
+            Planes to use instead of the stress's (pre-cut cracks).
+
+        Returns
+        -------
+        ndarray (n_c, 2)
+            ``crack_normal`` with the new clusters' planes: from the stress
+            (:mod:`~xlotkit.sim.mechanics.planes`) for clusters of :attr:`plane_free`,
+            the preset direction for :class:`FracturePlane` clusters, zeros otherwise.
+        """
+        idx = np.asarray(clusters, dtype=np.int64)
+        out = np.array(crack_normal, dtype=float, copy=True)
+        if idx.size == 0:
+            return out
+        out[idx[self.joint_mask[idx]]] = self._preset_normal
+        free = self.plane_free[idx]
+        if not free.any():
+            return out
+        cf = idx[free]
+        if plane_normal is not None:
+            pn = np.broadcast_to(np.asarray(plane_normal, dtype=float), (len(idx), 2))[free]
+            nrm = pn / np.linalg.norm(pn, axis=1, keepdims=True)
+        else:
+            eff = np.asarray(effective_stress, dtype=float)[cf]
+            nrm = tensile_plane_normal(eff)
+            ten = np.asarray(tensile, dtype=bool)[free]
+            for k, c in enumerate(cf):
+                if ten[k]:
+                    # at a crack (it shares a node with cracked clusters): the crack's
+                    # line, the mean plane of those clusters (planes module docstring)
+                    ax = self._nearby_axis(int(c), cluster_state, out, mode_one=True)
+                    if np.any(ax != 0.0):
+                        nrm[k] = ax
+            sh = ~ten
+            if sh.any():
+                cand = shear_plane_normals(eff[sh], self.rock.friction_angle)
+                ref = np.array([self._nearby_axis(int(c), cluster_state, out)
+                                for c in cf[sh]]).reshape(-1, 2)
+                nrm[sh] = choose_conjugate(cand, ref)
+        out[cf] = nrm
+        self._apply_planes(cf, nrm, ~np.asarray(tensile, dtype=bool)[free])
+        return out
+
+    def _nearby_axis(self, c: int, cluster_state: np.ndarray, crack_normal: np.ndarray,
+                     mode_one: bool = False) -> np.ndarray:
+        """Mean plane normal of the cracked clusters sharing a node with ``c`` (zeros:
+        none): the crack line a tensile failure continues (``mode_one``: of the clusters
+        failed in tension or preset only; a shear crack beside a mode-I crack is not its
+        line, and its plane, ~60 deg off, turned the line of the standard scene's crack
+        by up to 33 deg), the reference of a shear failure's conjugate plane (all)."""
+        if self._touch is None:
+            inc = self.cracks.incidence
+            self._touch = (inc @ inc.T).tocsr()
+        row = self._touch.indices[self._touch.indptr[c]:self._touch.indptr[c + 1]]
+        cs = np.asarray(cluster_state)[row]
+        nb = row[((cs == FAILED_TENSILE) | (cs == PRESET)) if mode_one
+                 else ((cs != INTACT) & (cs != INTERFACE))]
+        n = np.asarray(crack_normal)[nb]
+        n = n[np.any(n != 0.0, axis=1)]
+        return mean_axis(n) if len(n) else np.zeros(2)
+
+    def _apply_planes(self, idx: np.ndarray, normals: np.ndarray, shear: np.ndarray) -> None:
+        """Contact directions, operators, joint lengths and friction of clusters ``idx``
+        on the planes ``normals`` (unit, (k, 2)); crossing contacts as in
+        :class:`FracturePlane`. Clusters failed in tension (``shear`` False) slide with
+        the crack faces' friction (:class:`CrackPlanes`), in shear with the rock's: a
+        Mohr-Coulomb plane is a plane of friction ``phi`` (a frictionless one, free to
+        slide, unloads its neighbours and fails them in turn)."""
+        g = self.geometry
+        tris = self.mesh.triangles[idx]
+        pts = self.mesh.nodes[tris]
+        cross, sgn = plane_crossing(pts, pts.mean(axis=1), normals)
+        nd = sgn[..., None] * normals[:, None, :]
+        td = sgn[..., None] * plane_tangent(normals)[:, None, :]
+        cn = np.where(cross[..., None], nd, g.normal[idx])
+        ct = np.where(cross[..., None], td, g.shear[idx])
+        self.c_normal[idx] = cn
+        self.c_shear[idx] = ct
+        self.bn_c[idx], self.bs_c[idx] = joint_operators(g.dx[idx], cn, ct, cross)
+        self.joint[idx] = cross
+        self.ell[idx] = joint_lengths(g.area[idx], g.dx[idx], cn, cross)
+        self.mu[idx, :] = np.where(np.asarray(shear, dtype=bool), self.tan_phi,
+                                   math.tan(math.radians(self.crack_planes.friction_angle_deg))
+                                   )[:, None]
+        self._plane_applied[idx] = normals
+
+    def sync_planes(self, cluster_state: np.ndarray, crack_normal: np.ndarray) -> None:
+        """Make the contact rows of failed clusters follow the crack planes of a state.
+
+        The contact directions of a :attr:`plane_free` cluster are built when it fails
+        (:meth:`set_crack_planes`); a state from elsewhere (a checkpoint, a rejected step
+        retried) may carry other planes. Rebuilds the rows whose plane differs (cheap
+        when none does). Intact clusters' rows are never read.
+        """
+        if self.crack_planes is None:
+            return
+        cn = np.asarray(crack_normal, dtype=float)
+        fl = (np.asarray(cluster_state) != INTACT) & self.plane_free
+        diff = fl & np.any(cn != self._plane_applied, axis=1) & np.any(cn != 0.0, axis=1)
+        if diff.any():
+            idx = np.flatnonzero(diff)
+            self._apply_planes(idx, cn[idx], np.asarray(cluster_state)[idx] == FAILED_SHEAR)
+
+    def plane_azimuth(self, crack_normal: np.ndarray) -> np.ndarray:
+        """Direction of each crack plane [deg] in [0, 180) from +x; nan without one."""
+        cn = np.asarray(crack_normal, dtype=float)
+        t = plane_tangent(cn)
+        az = np.degrees(np.arctan2(t[:, 1], t[:, 0])) % 180.0
+        return np.where(np.any(cn != 0.0, axis=1), az, np.nan)
+
+    # ------------------------------------------------------------------ contact law
+    def normal_force(self, gap: np.ndarray) -> np.ndarray:
+        """Trial normal force [N/m] of every contact at the gap ``g = U_n - U_n^0`` [m]
+        (tension positive; used where ``g <= 0``, its sign alone where ``g > 0``).
+
+        Smooth law: ``k_n g``. With a closure law, joint contacts
+        (:attr:`joint`) carry ``-l_m sigma(-g)`` (``sigma`` of
+        :func:`~xlotkit.sim.mechanics.closure.stress_of_closure`, its initial tangent
+        line for ``g > 0``), the other contacts ``k_n g``.
+        """
+        f = self.kn * gap
+        if self.closure.nonlinear:
+            j = self.joint
+            sig, _ = stress_of_closure(self.closure, -gap[j])
+            f[j] = -self.ell[j] * sig
+        return f
+
+    def normal_stiffness(self, gap: np.ndarray) -> np.ndarray:
+        """Tangent ``d F_n / d g`` [N/m] of :meth:`normal_force` (``k_n`` itself, the same
+        array, for the smooth law)."""
+        if not self.closure.nonlinear:
+            return self.kn
+        k = self.kn.copy()
+        j = self.joint
+        _, kt = stress_of_closure(self.closure, -gap[j])
+        k[j] = self.ell[j] * kt
+        return k
+
+    def _gap_of_force(self, F: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """Gap at which the contacts of clusters ``idx`` carry the normal forces ``F``
+        (inverse of :meth:`normal_force`; tension opens by ``F / k_0``)."""
+        gap = F / self.kn[idx]
+        if self.closure.nonlinear:
+            j = self.joint[idx]
+            ell = self.ell[idx][j]
+            fj = F[j]
+            comp = fj < 0.0
+            k0 = ell * self.closure.initial_stiffness
+            gj = fj / k0
+            gj[comp] = -closure_of_stress(self.closure, -fj[comp] / ell[comp])
+            gap[j] = gj
+        return gap
+
     # ------------------------------------------------------------------ kernels
     def _response(self, u: np.ndarray, cstate: np.ndarray, ref_n: np.ndarray,
                   ref_s: np.ndarray, p: np.ndarray, frozen=None):
@@ -384,23 +615,40 @@ class MechanicsModel:
         (:func:`~xlotkit.sim.mechanics.kernels.contact_response` with this model's contact
         operators, stiffnesses and friction; ``frozen`` holds contacts on a branch).
 
-        Returns ``(Fn, Fs, status, sgn, f_c, Un, Us)``."""
+        With a closure law the kernel gets each contact's secant normal stiffness
+        ``F_n(g) / g`` (:meth:`normal_force`): the same trial force, sign and friction cap
+        as the law's, so statuses and forces are the law's while the kernel stays one
+        linear form. Returns ``(Fn, Fs, status, sgn, f_c, Un, Us)``."""
+        kn = self._secant_normal(u, ref_n) if self.closure.nonlinear else self.kn
         return contact_response(u, self.dofs, cstate, ref_n, ref_s, p, bn=self.bn, K=self.K,
-                                F0=self.F0, bn_c=self.bn_c, bs_c=self.bs_c, kn=self.kn,
+                                F0=self.F0, bn_c=self.bn_c, bs_c=self.bs_c, kn=kn,
                                 ks=self.ks, mu=self.mu, g_pressure=self.g_pressure,
                                 biot=self.rock.biot, frozen=frozen)
 
+    def _secant_normal(self, u: np.ndarray, ref_n: np.ndarray) -> np.ndarray:
+        """Secant normal stiffness ``F_n(g) / g`` [N/m] of every contact at u (the tangent
+        where ``g = 0``), for the kernel's linear form of a nonlinear closure law."""
+        uc = np.asarray(u).reshape(-1)[self.dofs]
+        gap = np.einsum("cmi,ci->cm", self.bn_c, uc) - ref_n
+        f = self.normal_force(gap)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(gap != 0.0, f / gap, self.normal_stiffness(gap))
+
     def _tangent_blocks(self, cstate: np.ndarray, status: np.ndarray,
-                        sgn: np.ndarray, soft: np.ndarray | None = None) -> np.ndarray:
+                        sgn: np.ndarray, soft: np.ndarray | None = None,
+                        kn: np.ndarray | None = None) -> np.ndarray:
         """Element tangent blocks (:func:`~xlotkit.sim.mechanics.kernels.tangent_blocks`);
         ``soft`` (n_c, 3) marks chattering contacts whose shear is linearised with the
         elastic (stick) stiffness and no normal coupling: an initial-stiffness tangent,
         symmetric and never singular, that converges linearly where the exact one cycles.
-        Open contacts keep ``EPS_OPEN`` of their stiffness in the *Jacobian only* (the
-        residual uses the exact zero force): nodes held only by open contacts would
-        otherwise make the matrix singular; the converged answer is unaffected."""
+        ``kn`` (n_c, 3): the contacts' tangent normal stiffness (:meth:`normal_stiffness`;
+        default ``k_n``, the smooth law). Open contacts keep ``EPS_OPEN`` of their
+        stiffness in the *Jacobian only* (the residual uses the exact zero force): nodes
+        held only by open contacts would otherwise make the matrix singular; the converged
+        answer is unaffected."""
         return tangent_blocks(cstate, status, sgn, k_intact=self.k_intact, bn_c=self.bn_c,
-                              bs_c=self.bs_c, kn=self.kn, ks=self.ks, mu=self.mu, soft=soft)
+                              bs_c=self.bs_c, kn=self.kn if kn is None else kn, ks=self.ks,
+                              mu=self.mu, soft=soft)
 
     def _equilibrate(self, u, cstate, ref_n, ref_s, p, pw):
         f_ext = self.f_far + pw * self.f_wall
@@ -436,7 +684,8 @@ class MechanicsModel:
             # (initial-stiffness tangent); with the residual line search below this trades
             # finite termination for robust, linear convergence on those contacts only
             soft = (flips >= _CHATTER_FLIPS) if it >= _LINE_SEARCH_AFTER else None
-            blocks = self._tangent_blocks(cstate, status, sgn, soft)
+            blocks = self._tangent_blocks(cstate, status, sgn, soft,
+                                          self.normal_stiffness(Un - ref_n))
             J = assemble_matrix(blocks, self.dofs, self.n_dof, keep=self.keep)
             diag = J.diagonal()
             floating = diag == 0.0
@@ -476,12 +725,22 @@ class MechanicsModel:
         return 2.0 * step
 
     # ------------------------------------------------------------------ states
-    def _make_state(self, u, cstate, ref_n, ref_s, slip, p, pw, resp) -> MechanicsState:
+    def _make_state(self, u, cstate, ref_n, ref_s, slip, p, pw, resp,
+                    crack_normal) -> MechanicsState:
         Fn, Fs, status, Un, Us = resp
         failed = cstate != INTACT
         g = self.geometry
         normal = np.where(failed[:, None, None], self.c_normal, g.normal)
         s_eff = mdem.cluster_stress_from_forces(g.area, g.dx, normal, Fn, self.c_shear, Fs)
+        pf = np.flatnonzero(failed & self.plane_free)
+        if pf.size:
+            # clusters on their own planes: the virtual-work stress of their operators
+            # (which carry the face couple, planes.joint_operators)
+            pts = self.mesh.nodes[self.mesh.triangles[pf]]
+            s_eff[pf] = (np.einsum("cm,cmk->ck", Fn[pf],
+                                   operator_stress(self.bn_c[pf], pts, g.area[pf]))
+                         + np.einsum("cm,cmk->ck", Fs[pf],
+                                     operator_stress(self.bs_c[pf], pts, g.area[pf])))
         alpha = np.where(failed, 1.0, self.rock.biot)
         iso = np.array([1.0, 1.0, 0.0])
         s_tot = s_eff - (alpha * p)[:, None] * iso
@@ -492,7 +751,8 @@ class MechanicsModel:
             displacement=_ro(u), wall_pressure=float(pw), pore_pressure=_ro(p),
             stress=_ro(stress), effective_stress=_ro(eff), cluster_state=_ro(cstate),
             contact_status=_ro(status), normal_force=_ro(-Fn), shear_force=_ro(Fs),
-            gap=_ro(gap), slip=_ro(slip), ref_normal=_ro(ref_n), ref_shear=_ro(ref_s))
+            gap=_ro(gap), slip=_ro(slip), ref_normal=_ro(ref_n), ref_shear=_ro(ref_s),
+            crack_normal=_ro(crack_normal))
 
     def _pressures(self, pore_pressure, wall_pressure, default_p, default_pw):
         nc = self.mesh.n_triangles
@@ -535,16 +795,18 @@ class MechanicsModel:
         if not ok:
             raise RuntimeError(f"initial equilibrium failed: {why}")
         ref_s, slip = self._commit_slip(resp, ref_s, np.zeros((nc, 3)), cstate)
-        return self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp)
+        return self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp, np.zeros((nc, 2)))
 
     def _contact_refs(self, idx, u, p, ref_n, ref_s, interface=False):
         """References of clusters entering a contact state: forces continuous.
 
-        Clusters of the fracture plane (``joint_mask``) are always mapped as interfaces
-        (their contact directions are not the sub-edge ones)."""
+        Clusters of the fracture plane (``joint_mask``) and clusters with their own crack
+        plane (``plane_free``, whose plane :meth:`set_crack_planes` set first) are always
+        mapped as interfaces (their contact directions are not the sub-edge ones)."""
         idx = np.asarray(idx, dtype=np.int64)
-        if not interface and idx.size and self.joint_mask[idx].any():
-            j = self.joint_mask[idx]
+        mapped = self.joint_mask | self.plane_free
+        if not interface and idx.size and mapped[idx].any():
+            j = mapped[idx]
             ref_n, ref_s = self._contact_refs(idx[j], u, p, ref_n, ref_s, interface=True)
             return self._contact_refs(idx[~j], u, p, ref_n, ref_s)
         ref_n = ref_n.copy()
@@ -573,6 +835,15 @@ class MechanicsModel:
                         cols.append([f[0] * dxm[0], f[1] * dxm[1],
                                      0.5 * (f[0] * dxm[1] + f[1] * dxm[0])])
                 A = np.array(cols).T / self.area[c]
+                if self.plane_free[c]:
+                    # the stress of the plane's operators (with the face couple)
+                    pts = self.mesh.nodes[self.mesh.triangles[c]][None]
+                    Sn = operator_stress(self.bn_c[c][None], pts, self.area[c:c + 1])[0]
+                    Ss = operator_stress(self.bs_c[c][None], pts, self.area[c:c + 1])[0]
+                    A = np.empty((3, 6))
+                    A[:, 0::2], A[:, 1::2] = Sn.T, Ss.T
+                    Fn_new[k], Fs_new[k] = self._joint_forces(c, A, s_target[k])
+                    continue
                 x, *_ = np.linalg.lstsq(A, s_target[k], rcond=None)
                 Fn_new[k] = x[0::2]
                 Fs_new[k] = x[1::2]
@@ -581,9 +852,40 @@ class MechanicsModel:
             Fs = np.zeros_like(F)
         Un = np.einsum("cmi,ci->cm", self.bn_c[idx], uc)
         Us = np.einsum("cmi,ci->cm", self.bs_c[idx], uc)
-        ref_n[idx] = Un - F / self.kn[idx]
+        ref_n[idx] = Un - self._gap_of_force(F, idx)
         ref_s[idx] = Us - Fs / self.ks[idx]
         return ref_n, ref_s
+
+    def _joint_forces(self, c: int, A: np.ndarray, s_target: np.ndarray):
+        """Contact forces of a cluster failing onto its own crack plane that reproduce its
+        effective stress ``s_target`` (columns ``A``: stress of a unit normal / shear force
+        of each contact, interleaved).
+
+        The crossing contacts carry one joint traction, ``F_n = l_m sigma_J`` and
+        ``F_s = l_m tau_J`` (``l_m`` the joint lengths), so the crack is closed evenly
+        under the stress normal to it; the third contact the rest. The four unknowns
+        ``(l sigma_J, l tau_J, F_n3, F_s3)`` (``l`` the mean joint length) are the
+        least-norm solution of the three stress components. (The least-norm solution over
+        all six forces, kept for preset planes and interfaces, can put one crossing
+        contact in tension and another in extra compression: the crack would open in part
+        at failure under a compressive stress normal to it.)
+        """
+        jt = self.joint[c]
+        ell = self.ell[c]
+        lbar = float(np.mean(ell[jt]))
+        An, As = A[:, 0::2], A[:, 1::2]
+        cols = [An[:, jt] @ ell[jt] / lbar, As[:, jt] @ ell[jt] / lbar]
+        rest = np.flatnonzero(~jt)
+        for m in rest:
+            cols += [An[:, m], As[:, m]]
+        x, *_ = np.linalg.lstsq(np.array(cols).T, s_target, rcond=None)
+        fn = np.zeros(3)
+        fs = np.zeros(3)
+        fn[jt] = ell[jt] * x[0] / lbar
+        fs[jt] = ell[jt] * x[1] / lbar
+        fn[rest] = x[2::2]
+        fs[rest] = x[3::2]
+        return fn, fs
 
     def _commit_slip(self, resp, ref_s, slip, cstate):
         """After a converged step: move shear references by the frictional slip."""
@@ -598,17 +900,32 @@ class MechanicsModel:
         return new_ref, slip + np.abs(dslip)
 
     def fail_clusters(self, state: MechanicsState, clusters: np.ndarray,
-                      mode: int = PRESET) -> MechanicsState:
+                      mode: int = PRESET,
+                      plane_normal: np.ndarray | None = None) -> MechanicsState:
         """Return a copy of ``state`` with ``clusters`` switched to a failed state.
 
         The contact forces of the switched clusters equal those of their current stress
         (no jump); use :meth:`step` afterwards to re-equilibrate. Used to pre-cut cracks.
+        With :class:`CrackPlanes` the clusters get the crack plane ``plane_normal``
+        ((2,) or one per cluster, unit normal), default the tensile plane of their stress.
         """
         idx = np.unique(np.asarray(clusters, dtype=np.int64))
         if idx.size and (idx.min() < 0 or idx.max() >= self.mesh.n_triangles):
             raise InputError("cluster index out of range", key="clusters")
         cstate = np.array(state.cluster_state)
-        idx = idx[cstate[idx] == INTACT]
+        keep = cstate[idx] == INTACT
+        if plane_normal is not None:
+            pn = np.asarray(plane_normal, dtype=float)
+            if pn.shape not in ((2,), (len(idx), 2)) or not np.all(np.isfinite(pn)) or \
+                    np.any(np.linalg.norm(pn.reshape(-1, 2), axis=1) == 0.0):
+                raise InputError("must be a non-zero (2,) vector or one per cluster",
+                                 key="plane_normal")
+            plane_normal = pn if pn.ndim == 1 else pn[keep]
+        idx = idx[keep]
+        self.sync_planes(cstate, state.crack_normal)
+        cn = self.set_crack_planes(idx, np.ones(len(idx), dtype=bool),
+                                   np.asarray(state.effective_stress), cstate,
+                                   np.asarray(state.crack_normal), plane_normal)
         ref_n, ref_s = self._contact_refs(idx, np.asarray(state.displacement),
                                           np.asarray(state.pore_pressure),
                                           np.asarray(state.ref_normal),
@@ -619,7 +936,7 @@ class MechanicsModel:
         Fn, Fs, status, _, f_c, Un, Us = resp
         return self._make_state(np.asarray(state.displacement), cstate, ref_n, ref_s,
                                 np.asarray(state.slip), p, state.wall_pressure,
-                                (Fn, Fs, status, Un, Us))
+                                (Fn, Fs, status, Un, Us), cn)
 
     # ------------------------------------------------------------------ failure
     def touches_crack(self, cluster_state: np.ndarray) -> np.ndarray:
@@ -731,6 +1048,8 @@ class MechanicsModel:
         ref_n = np.array(state.ref_normal)
         ref_s = np.array(state.ref_shear)
         slip = np.array(state.slip)
+        cn = np.array(state.crack_normal)
+        self.sync_planes(cstate, cn)
         new: list[int] = []
         total_it = 0
         rounds = 0
@@ -744,7 +1063,7 @@ class MechanicsModel:
                 break
             if not check_failure:
                 break
-            trial = self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp)
+            trial = self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp, cn)
             mt, ms = self.failure_margins(trial)
             intact = cstate == INTACT
             tens = intact & (mt >= 0.0)
@@ -761,12 +1080,14 @@ class MechanicsModel:
             cand = cand[np.argsort(-sev, kind="stable")]
             if opts.max_new_failures is not None:
                 cand = cand[: int(opts.max_new_failures)]
+            cn = self.set_crack_planes(cand, tens[cand], np.asarray(trial.effective_stress),
+                                       cstate, cn)
             ref_n, ref_s = self._contact_refs(cand, u, p, ref_n, ref_s)
             cstate[cand] = np.where(tens[cand], FAILED_TENSILE, FAILED_SHEAR)
             new.extend(int(c) for c in cand)
         if ok:
             ref_s, slip = self._commit_slip(resp, ref_s, slip, cstate)
-        st = self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp)
+        st = self._make_state(u, cstate, ref_n, ref_s, slip, p, pw, resp, cn)
         return MechanicsResult(state=st, converged=ok, reason=why, iterations=total_it,
                                failure_rounds=rounds,
                                new_failures=np.array(new, dtype=np.int64))
@@ -774,11 +1095,13 @@ class MechanicsModel:
     # ------------------------------------------------------------------ coupling
     def tangent(self, state: MechanicsState):
         """Reduced tangent stiffness (free DOFs) at ``state``, scipy CSR [N/m^2]."""
-        _, _, status, sgn, *_ = self._response(
+        self.sync_planes(state.cluster_state, state.crack_normal)
+        _, _, status, sgn, _, Un, _ = self._response(
             np.asarray(state.displacement), np.asarray(state.cluster_state),
             np.asarray(state.ref_normal), np.asarray(state.ref_shear),
             np.asarray(state.pore_pressure))
-        blocks = self._tangent_blocks(np.asarray(state.cluster_state), status, sgn)
+        blocks = self._tangent_blocks(np.asarray(state.cluster_state), status, sgn,
+                                      kn=self.normal_stiffness(Un - np.asarray(state.ref_normal)))
         return assemble_matrix(blocks, self.dofs, self.n_dof, keep=self.keep)
 
     def pressure_load(self, state: MechanicsState) -> tuple[np.ndarray, np.ndarray]:

@@ -105,7 +105,8 @@ CONDITIONS: dict[str, Condition] = {
                  "jitter")},
     "mesh.file": Condition(_two_d, _2D),
     **{f"mesh.{k}": Condition(_band, _BAND)
-       for k in ("band_width", "band_element_size", "band_length", "band_strip")},
+       for k in ("band_width", "band_element_size", "band_length", "band_strip",
+                 "band_centred_wall")},
     "mesh.seed": Condition(lambda sc: _generated(sc) and sc.mesh.jitter > 0.0,
                            "mesh.jitter > 0 (the generated 2D mesh)"),
     "rock.biot": Condition(lambda sc: _two_d(sc) and sc.effects.poroelastic,
@@ -134,8 +135,22 @@ CONDITIONS: dict[str, Condition] = {
     "rock.toughness": Condition(lambda sc: _two_d(sc) and sc.effects.strength_scaling,
                                 "effects.strength_scaling = true (the 2D model)"),
     "rock.fracture_friction_angle": Condition(
-        lambda sc: _two_d(sc) and sc.effects.fracture_plane,
-        "effects.fracture_plane = true (the 2D model)"),
+        lambda sc: _two_d(sc) and (sc.effects.fracture_plane or sc.rock.crack_plane == "stress"),
+        "effects.fracture_plane = true or rock.crack_plane = 'stress' (the 2D model)"),
+    "rock.crack_plane": Condition(_two_d, _2D),
+    "rock.closure_law": Condition(_two_d, _2D),
+    "rock.joint_normal_stiffness": Condition(
+        lambda sc: _two_d(sc) and sc.rock.closure_law == "barton_bandis",
+        "rock.closure_law = 'barton_bandis' (the 2D model)"),
+    "rock.joint_max_closure": Condition(
+        lambda sc: _two_d(sc) and sc.rock.closure_law in ("barton_bandis", "exponential"),
+        "rock.closure_law = 'barton_bandis' or 'exponential' (the 2D model)"),
+    "rock.joint_reference_stress": Condition(
+        lambda sc: _two_d(sc) and sc.rock.closure_law == "exponential",
+        "rock.closure_law = 'exponential' (the 2D model)"),
+    "rock.sealed_aperture": Condition(
+        lambda sc: _two_d(sc) and sc.rock.closure_law != "smooth",
+        "a rock.closure_law other than 'smooth' (the 2D model)"),
     "rock.dilation_angle": Condition(lambda sc: _two_d(sc) and sc.effects.shear_dilation,
                                      "effects.shear_dilation = true (the 2D model)"),
     "stresses.sigma_H_azimuth": Condition(_two_d, _2D),

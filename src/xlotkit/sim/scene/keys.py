@@ -152,6 +152,9 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
         "band_strip": _k("bool", doc="lay a crack strip along the band axis: two staggered "
                                      "node rows, every strip triangle straddling the axis "
                                      "(only they are band clusters)"),
+        "band_centred_wall": _k("bool", doc="place the hole wall's nodes so that the band "
+                                            "axis meets the wall in the middle of an edge "
+                                            "(always so with band_strip)"),
         "jitter": _k("dimensionless", "", 0.0, 0.3,
                      doc="random node displacement, fraction of the local size"),
         "seed": _k("int", "", 0, 2**63 - 1, optional=True,
@@ -189,8 +192,35 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                             "effects.strength_scaling; sets A_ref from T0, needs the "
                             "exponent 0.25)"),
         "fracture_friction_angle": _k("angle", "deg", 0.0, 70.0,
-                                      doc="friction angle of failed fracture-band clusters "
-                                          "(used when effects.fracture_plane)"),
+                                      doc="friction angle of the faces of tensile cracks "
+                                          "on a crack plane (crack_plane = 'stress'; "
+                                          "shear cracks slide with friction_angle), and "
+                                          "of the fracture band's (effects.fracture_plane)"),
+        "crack_plane": _k("choice", choices=("stress", "edges"),
+                          doc="the crack inside a failed cluster: 'stress' = its own plane, "
+                              "set when it fails (normal to sigma'_min in tension, the "
+                              "Mohr-Coulomb plane in shear), a smooth joint; 'edges' = "
+                              "the triangle's sub-edge contacts with the rock's friction "
+                              "(the former free path)"),
+        "closure_law": _k("choice", choices=("smooth", "barton_bandis", "exponential"),
+                          doc="normal law of a closed crack: 'smooth' = the contact's "
+                              "linear stiffness and a constant residual aperture; "
+                              "'barton_bandis' / 'exponential' = closure against effective "
+                              "normal stress, the aperture falling to sealed_aperture"),
+        "joint_normal_stiffness": _k("Pa/m", "Pa/m", 0.0, 1e18, lo_open=True, optional=True,
+                                     doc="initial normal stiffness K_ni of the "
+                                         "barton_bandis closure law (needed by it only)"),
+        "joint_max_closure": _k(_L, "m", 0.0, 0.1, lo_open=True, optional=True,
+                                doc="maximum closure V_m of the barton_bandis and "
+                                    "exponential closure laws (needed by them only)"),
+        "joint_reference_stress": _k(_P, "Pa", 0.0, 500e6, lo_open=True, optional=True,
+                                     doc="reference stress sigma_r of the exponential "
+                                         "closure law, delta = V_m (1 - exp(-sigma'_n / "
+                                         "sigma_r)) (needed by it only)"),
+        "sealed_aperture": _k(_L, "m", 0.0, 0.01, optional=True,
+                              doc="hydraulic aperture of a crack closed to V_m (closure "
+                                  "laws only; default 1e-5 m, the smooth law's residual "
+                                  "aperture)"),
         "dilation_angle": _k("angle", "deg", 0.0, 45.0, lo_open=True, optional=True,
                              doc="shear-dilation angle psi of failed clusters' cracks: the "
                                  "hydraulic aperture gains tan(psi) |u_s| (needs, and is "

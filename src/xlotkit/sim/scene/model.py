@@ -260,6 +260,11 @@ class Scene:
                 out.append(f"effects.{name}")
         if ef.interface:
             out.append("effects.interface")
+        # the crack inside failed clusters and its closure law exist only in 2D
+        if self.rock.closure_law != "smooth":
+            out.append("rock.closure_law")
+        if self.rock.crack_plane != "stress":
+            out.append("rock.crack_plane")
         if self.coupling != "monolithic":
             out.append("coupling")
         return tuple(out)

@@ -9,7 +9,7 @@ from typing import ClassVar, Literal
 
 from xlotkit.checks import check_range as _check
 from xlotkit.errors import InputError
-from xlotkit.sim.scene.keys import _validate
+from xlotkit.sim.scene.keys import _spec, _validate
 from xlotkit.sim.scene.lumped import NWB_DEFAULT
 from xlotkit.sim.well import INCH, WATER_COMPRESSIBILITY, Completion
 
@@ -126,12 +126,17 @@ class MeshOptions:
     band_element_size: float | None = None
     band_length: float | None = None
     band_strip: bool = False
+    band_centred_wall: bool = False
     jitter: float = 0.0
     seed: int | None = None
     file: str | None = None
 
     def __post_init__(self) -> None:
         _validate(self, self.section)
+        if self.band_centred_wall and not self.fracture_band:
+            raise InputError("mesh.band_centred_wall places the wall by the fracture band, "
+                             "which is off", key="mesh.band_centred_wall",
+                             expected="mesh.fracture_band = true, or no band_centred_wall")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -152,11 +157,31 @@ class Rock:
     strength_scaling_reference_area: float = 1e-4
     toughness: float | None = None
     fracture_friction_angle: float = 0.0
+    crack_plane: str = "stress"
+    closure_law: str = "smooth"
+    joint_normal_stiffness: float | None = None
+    joint_max_closure: float | None = None
+    joint_reference_stress: float | None = None
+    sealed_aperture: float | None = None
     dilation_angle: float | None = None
     seed: int | None = None
 
     def __post_init__(self) -> None:
         _validate(self, self.section)
+        need = {"smooth": (), "barton_bandis": ("joint_normal_stiffness", "joint_max_closure"),
+                "exponential": ("joint_reference_stress", "joint_max_closure")}[self.closure_law]
+        for name in ("joint_normal_stiffness", "joint_max_closure", "joint_reference_stress",
+                     "sealed_aperture"):
+            given = getattr(self, name) is not None
+            if name in need and not given:
+                raise InputError(f"closure_law = {self.closure_law!r} needs rock.{name}",
+                                 key=f"rock.{name}", expected=_spec(self.section, name)
+                                 .range_text())
+            if given and name not in need and (name != "sealed_aperture"
+                                               or self.closure_law == "smooth"):
+                raise InputError(f"rock.{name} is not used by closure_law = "
+                                 f"{self.closure_law!r}", key=f"rock.{name}",
+                                 expected="no value, or a closure_law that uses it")
         if self.toughness is not None and self.strength_scaling_exponent != 0.25:
             raise InputError("a toughness needs the LEFM exponent 0.25",
                              key="rock.strength_scaling_exponent", expected="0.25")
