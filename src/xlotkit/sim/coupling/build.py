@@ -129,7 +129,7 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
                               reference_area=rk.strength_scaling_reference_area,
                               exponent=rk.strength_scaling_exponent,
-                              toughness=rk.toughness)
+                              toughness=rk.toughness, wall=rk.wall_criterion)
     rock = RockProperties(young=rk.youngs_modulus, poisson=rk.poisson_ratio, biot=biot,
                           tensile_strength=rk.tensile_strength, cohesion=rk.cohesion,
                           friction_angle_deg=rk.friction_angle,
