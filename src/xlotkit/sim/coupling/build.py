@@ -141,7 +141,8 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
         fplane = FracturePlane(math.radians(scene.stresses.sigma_H_azimuth),
                                friction_angle_deg=rk.fracture_friction_angle)
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
-                          interfaces=planes, fracture_plane=fplane)
+                          interfaces=planes, fracture_plane=fplane,
+                          permeable_wall=rk.permeability > 0.0)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)

@@ -214,6 +214,10 @@ class MechanicsModel:
     options : SolverOptions, optional
     fracture_plane : FracturePlane, optional
         Marked clusters that open as a smooth joint once failed.
+    permeable_wall : bool
+        The well's fluid enters the rock at the hole wall (a coupled model with a
+        permeable rock): the wall criterion's pore pressure has the well pressure on the
+        wall (:class:`~xlotkit.sim.mechanics.wall.WallCriterion`).
 
     Notes
     -----
@@ -230,6 +234,7 @@ class MechanicsModel:
         interfaces: Sequence[InterfacePlane] = (),
         options: SolverOptions | None = None,
         fracture_plane: FracturePlane | None = None,
+        permeable_wall: bool = False,
     ) -> None:
         if not isinstance(mesh, Mesh):
             raise InputError("expected a Mesh", key="mesh")
@@ -271,7 +276,7 @@ class MechanicsModel:
         # tensile initiation at the hole wall by the point method at L/2 (one material
         # length with the crack tips' K_IC); None: the wall keeps the cluster average
         length = material_length(rock) if self._tip_scaling else None
-        self.wall = (WallCriterion(mesh, length)
+        self.wall = (WallCriterion(mesh, length, permeable_wall=permeable_wall)
                      if length is not None and mesh.hole_radius is not None
                      and len(mesh.hole_nodes) else None)
         self.tan_phi = math.tan(rock.friction_angle)
