@@ -118,3 +118,36 @@ def test_small_material_length_gives_hubbert_willis(k_ic):
         assert mode == 1
         assert p == pytest.approx(ref, rel=0.01)       # measured within 0.5 %
         assert p == pytest.approx(hw, rel=0.025)
+
+
+@pytest.mark.slow
+def test_flaw_at_the_wall_breaks_down_at_the_lefm_pressure():
+    # Two radial flaws of l = 0.15 m (s = l/(a + l) = 0.5) cut along sigma_par = x at the
+    # wall, filled with the hole's fluid; K_IC = 0.5 MPa m^0.5. With the well pressure at
+    # breakdown equal to the stress along the flaws, the problem is a traction-free hole
+    # and flaws under the tension P - sigma_n across them (formulas.
+    # hole_cracks_stress_intensity): sigma_n is set so that LEFM puts breakdown at
+    # P_b = sigma_par, i.e. at the net pressure P_b - sigma_n = K_IC / (sqrt(pi l) F(s)).
+    # Measured (band h = 0.02 m, discrete flaw 0.1466 m): net pressure 0.4963 MPa against
+    # 0.5043 MPa (-1.6 %), and the flaw ran. Tolerance 5 %: the interaction integral's
+    # 1.006-1.023 K_IC on the KGD band, Tada's 1 %, and the flaw's discrete end (h/2 of
+    # 0.15 m is 1.7 % of K through sqrt(l)).
+    k_ic, ell, h, s_par = 0.5e6, 0.15, 0.02, 12e6
+    s_n = s_par - k_ic / formulas.hole_cracks_stress_intensity(1.0, ell, A)
+    mesh = borehole_mesh(size=12.0, radius=A, growth=1.2, h_wall=h,
+                         fracture_band=FractureBand(0.0, 4 * h, h, 3.0))
+    rock = RockProperties(tensile_strength=5e6, cohesion=20e6,
+                          scaling=StrengthScaling(True, toughness=k_ic))
+    model = MechanicsModel(mesh, rock, InSituStress(s_par, s_n, 0.0, 0.0, 0.5 * s_n))
+    y = mesh.nodes[:, 1][mesh.triangles]
+    r_nodes = np.hypot(*mesh.nodes[mesh.triangles].transpose(2, 0, 1))
+    flaw = (y.max(axis=1) >= 0) & (y.min(axis=1) <= 0) & (r_nodes.max(axis=1) <= A + ell)
+    st = model.fail_clusters(model.initial_state(), np.flatnonzero(flaw), mode=PRESET)
+    _, length, _ = crack_geometry(model, st.cluster_state)
+    assert length == pytest.approx(ell, abs=h)
+    st = model.step(st, pore_pressure=np.where(flaw, st.wall_pressure, st.pore_pressure),
+                    check_failure=False).state
+    b = breakdown_pressure(model, s_par + 1e6, state=st, dp=0.5e6, tol=2e3, run_length=1.0)
+    assert b.converged, b.reason
+    assert b.runaway_length > 0.5
+    assert b.pressure - s_n == pytest.approx(s_par - s_n, rel=0.05)
