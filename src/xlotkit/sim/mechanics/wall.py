@@ -49,7 +49,10 @@ field's).
 Pore pressure at the points: the cluster pressures averaged (by area) onto the nodes and
 interpolated linearly in the triangle holding the point; with ``permeable_wall`` the nodes
 on the wall carry the well pressure (the fluid touches the rock there, as the flow model's
-wall flux assumes), otherwise the wall clusters' own (an impermeable rock keeps ``p0``).
+wall flux assumes), capped by the largest pressure of the clusters between the wall and the
+point (a tight rock's leak-off front is far thinner than a cluster: without the cap the
+point would see the well pressure at once); otherwise the wall clusters' own (an
+impermeable rock keeps ``p0``).
 The leak-off front is steep on the scale of ``L`` when the rock is permeable: measured on
 the standard scene at 31.1 MPa in the hole (1D radial diffusion as the reference, 26.99 MPa
 at ``L/2``), this estimate is 25.1 / 25.8 / 26.4 MPa on 12 / 24 / 48 wall segments (the
@@ -85,6 +88,9 @@ FIT_MODES = 4
 #: Points per cluster arc at which the point method is evaluated (a 30 deg wall arc, 12
 #: segments, sampled every 3.75 deg: the hoop stress's maximum is missed by < 0.03 MPa).
 ARC_SAMPLES = 9
+# points on the radial segment from the wall to a criterion point at which the clusters
+# crossed are found (the pore-pressure cap of WallCriterion.margins)
+_CAP_SAMPLES = 8
 # a fit whose area-weighted rms residual exceeds this fraction of the stress scale is not
 # an intact field around a hole (a crack within the region): the clusters keep the
 # cluster-average criterion for that check
@@ -217,6 +223,11 @@ class WallCriterion:
         pts = c0 + rp * np.column_stack([np.cos(ang), np.sin(ang)])
         self.permeable_wall = bool(permeable_wall)
         self._pt_pressure, self._pt_wall = _interpolation(mesh, pts, self.permeable_wall)
+        # clusters on the radial segment from the wall to each point (the cap below)
+        frac = (np.arange(_CAP_SAMPLES) + 0.5) / _CAP_SAMPLES
+        seg = c0 + (a + np.outer(frac, np.full(len(ang), 0.5 * self.length)).T)[..., None] \
+            * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
+        self._pt_path = _locate(mesh, seg.reshape(-1, 2))[0].reshape(len(ang), -1)
 
     # ------------------------------------------------------------------ recovery
     def _solver(self, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -312,8 +323,14 @@ class WallCriterion:
         if pol is None:
             return None
         eff = pol.copy()
-        p = (self._pt_pressure @ np.asarray(pore_pressure, dtype=float)
-             + self._pt_wall * wall_pressure)
+        pp = np.asarray(pore_pressure, dtype=float)
+        p = self._pt_pressure @ pp + self._pt_wall * wall_pressure
+        if self.permeable_wall:
+            # the linear profile from the wall value holds no more fluid than the clusters
+            # between the wall and the point: a pressure that falls away from the wall is
+            # below their largest there (without this cap a tight rock, whose leak-off
+            # front is far thinner than a cluster, would see the well pressure at once)
+            p = np.minimum(p, pp[self._pt_path].max(axis=1))
         eff[:, :2] -= p[:, None]
         cl = self.clusters
         own = self._owner
@@ -329,32 +346,16 @@ class WallCriterion:
         return cl[ok], mt[ok], ms[ok]
 
 
-def _interpolation(mesh: Mesh, points: np.ndarray, wall_value: bool
-                   ) -> tuple[sp.csr_matrix, np.ndarray]:
-    """Linear interpolation at ``points`` of a cluster field: matrix (n_points, n_c) and the
-    weight (n_points,) of the wall value.
-
-    The cluster values are averaged by area onto the nodes (the wall nodes take the wall
-    value instead when ``wall_value``), then interpolated linearly in the triangle holding
-    each point (the nearest triangle's clipped barycentric weights for a point outside the
-    mesh)."""
+def _locate(mesh: Mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Triangle holding each point and its barycentric weights (the nearest triangle's,
+    clipped, for a point outside the mesh)."""
     tris = mesh.triangles
-    nt, nn = mesh.n_triangles, mesh.n_nodes
-    area = np.asarray(mesh.areas)
-    rows = tris.reshape(-1)
-    cols = np.repeat(np.arange(nt), 3)
-    nodal = sp.csr_matrix((np.repeat(area, 3), (rows, cols)), shape=(nn, nt))
-    nodal = sp.diags(1.0 / np.asarray(nodal.sum(axis=1)).ravel()) @ nodal
-    on_wall = np.zeros(nn)
-    if wall_value:
-        on_wall[mesh.hole_nodes] = 1.0
-        nodal = sp.diags(1.0 - on_wall) @ nodal
     tree = cKDTree(mesh.centroids)
-    k = min(12, nt)
-    _, cand = tree.query(points, k=k)
+    _, cand = tree.query(points, k=min(12, mesh.n_triangles))
     cand = np.atleast_2d(cand)
     X = mesh.nodes
-    r_idx, c_idx, vals = [], [], []
+    owner = np.empty(len(points), dtype=np.int64)
+    weights = np.empty((len(points), 3))
     for i, pt in enumerate(points):
         best, best_w = None, None
         for t in cand[i]:
@@ -368,9 +369,30 @@ def _interpolation(mesh: Mesh, points: np.ndarray, wall_value: bool
             if best is None:
                 best, best_w = t, w
         w = np.clip(best_w, 0.0, None)
-        w = w / w.sum()
-        r_idx.extend([i] * 3)
-        c_idx.extend(tris[best])
-        vals.extend(w)
-    interp = sp.csr_matrix((vals, (r_idx, c_idx)), shape=(len(points), nn))
+        owner[i], weights[i] = best, w / w.sum()
+    return owner, weights
+
+
+def _interpolation(mesh: Mesh, points: np.ndarray, wall_value: bool
+                   ) -> tuple[sp.csr_matrix, np.ndarray]:
+    """Linear interpolation at ``points`` of a cluster field: matrix (n_points, n_c) and the
+    weight (n_points,) of the wall value.
+
+    The cluster values are averaged by area onto the nodes (the wall nodes take the wall
+    value instead when ``wall_value``), then interpolated linearly in the triangle holding
+    each point."""
+    tris = mesh.triangles
+    nt, nn = mesh.n_triangles, mesh.n_nodes
+    area = np.asarray(mesh.areas)
+    nodal = sp.csr_matrix((np.repeat(area, 3), (tris.reshape(-1), np.repeat(np.arange(nt), 3))),
+                          shape=(nn, nt))
+    nodal = sp.diags(1.0 / np.asarray(nodal.sum(axis=1)).ravel()) @ nodal
+    on_wall = np.zeros(nn)
+    if wall_value:
+        on_wall[mesh.hole_nodes] = 1.0
+        nodal = sp.diags(1.0 - on_wall) @ nodal
+    owner, w = _locate(mesh, points)
+    interp = sp.csr_matrix((w.reshape(-1), (np.repeat(np.arange(len(points)), 3),
+                                            tris[owner].reshape(-1))),
+                           shape=(len(points), nn))
     return (interp @ nodal).tocsr(), interp @ on_wall
