@@ -25,13 +25,14 @@ import math
 import sys
 import tempfile
 import time
-import tomllib
 from pathlib import Path
+
+import tomllib
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from accuracy_vs_cost import merge  # noqa: E402
+from accuracy_vs_cost import merge
 
 DOC = ROOT / "docs" / "mechanics.md"
 START, END = "<!-- MESH-STUDY:START -->", "<!-- MESH-STUDY:END -->"
@@ -92,16 +93,22 @@ def _sec(v) -> str:
 
 
 def table(results: dict) -> str:
-    lines = ["| path / refined | wall segments | triangles | initiation [bar] | breakdown (model) [bar] "
-             "| FBP picked [bar] | FPP picked [bar] | wall time [s] | CPU [s] |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    head = ("| path / refined | wall segments | triangles | initiation [bar] "
+            "| breakdown (model) [bar] | FBP picked [bar] | FPP picked [bar] | wall time [s] "
+            "| CPU [s] |")
+    lines = [head, "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    notes = []
     for key, r in results.items():
         path, n = key.split(":")
         path = path.replace("/", " / ")
         lines.append(f"| {path} | {n} | {r['triangles'] or '–'} | {_bar(r['initiation'])} | "
                      f"{_bar(r['fbp_truth'])} | {_bar(r['picks'].get('FBP'))} | "
-                     f"{_bar(r['picks'].get('FPP'))} | {_sec(r['wall_s'])} | {_sec(r['cpu_s'])} |"
-                     + (f" failed: {r['message'][:80]}" if r["status"] == "failed" else ""))
+                     f"{_bar(r['picks'].get('FPP'))} | {_sec(r['wall_s'])} | {_sec(r['cpu_s'])} |")
+        if r["status"] != "ok":
+            notes.append(f"{key}: {r['status']}: {r['message'][:200]}")
+    if notes:
+        lines.append("")
+        lines.extend(f"* {n}" for n in notes)
     for path in sorted({k.split(":")[0] for k in results}):
         for q in ("FBP", "FPP"):
             v = [r["picks"].get(q) for k, r in results.items() if k.startswith(path + ":")]

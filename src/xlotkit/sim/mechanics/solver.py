@@ -72,7 +72,6 @@ from xlotkit.sim.mechanics.failure import (
     toughness_margin,
 )
 from xlotkit.sim.mechanics.fronts import CrackFront, CrackFronts
-from xlotkit.sim.mechanics.wall import WallCriterion
 from xlotkit.sim.mechanics.states import (
     BONDED,
     FAILED_SHEAR,
@@ -84,6 +83,7 @@ from xlotkit.sim.mechanics.states import (
     SLIP,
     STICK,
 )
+from xlotkit.sim.mechanics.wall import WallCriterion
 from xlotkit.sim.mesh import BOTTOM, HOLE, LEFT, Mesh
 
 __all__ = [

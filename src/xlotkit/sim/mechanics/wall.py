@@ -74,7 +74,7 @@ from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.failure import mohr_coulomb_margin, tensile_margin
 from xlotkit.sim.mesh import Mesh
 
-__all__ = ["FIT_RADIUS", "FIT_MODES", "ARC_SAMPLES", "WallCriterion", "michell_wall_basis"]
+__all__ = ["ARC_SAMPLES", "FIT_MODES", "FIT_RADIUS", "WallCriterion", "michell_wall_basis"]
 
 #: Radius of the fitting region beyond the wall in hole radii: with ``4 a`` the far-field
 #: amplitudes are fixed by many clusters and the area weighting averages the constant-strain
