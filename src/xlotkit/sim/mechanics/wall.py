@@ -40,9 +40,9 @@ Michell terms up to ``cos/sin(n_modes theta)`` that leave the wall traction-free
 Fourier mode, the null space of the wall conditions). Only the amplitudes of the far-field
 modes are fitted; the steep near-wall part follows from elasticity. Measured on the
 standard scene's meshes (P = 35 MPa, sigma_H 40 / sigma_h 30 MPa): the hoop stress at
-``L/2`` = 0.0177 m within 0.00 / 0.14 / 0.32 / 0.01 MPa of Kirsch on 9 / 12 / 24 / 48 wall
+``L/2`` = 0.0177 m within 0.17 / 0.15 / 0.24 / 0.03 MPa of Kirsch on 9 / 12 / 24 / 48 wall
 segments, where the wall cluster's own average is off by 5.1 MPa on 12 segments and an
-unconstrained fit by 1.4-2.7 MPa (docs/mechanics.md). Clusters that are failed, preset,
+unconstrained fit by 2.7 MPa (docs/mechanics.md). Clusters that are failed, preset,
 interfaces or touch a crack are left out of the fit (their stress is not the intact
 field's).
 
@@ -78,12 +78,12 @@ __all__ = ["ARC_SAMPLES", "FIT_MODES", "FIT_RADIUS", "WallCriterion", "michell_w
 
 #: Radius of the fitting region beyond the wall in hole radii: with ``4 a`` the far-field
 #: amplitudes are fixed by many clusters and the area weighting averages the constant-strain
-#: clusters' O(h) scatter (``2 a``: 1.4-2.0 MPa off at ``L/2`` on 12 wall segments, ``4 a``:
-#: 0.14 MPa; measured, module docstring).
+#: clusters' O(h) scatter (``2 a``: 1.5-1.9 MPa off at ``L/2`` on 12 wall segments, ``4 a``:
+#: 0.15 MPa; measured, module docstring).
 FIT_RADIUS = 4.0
 #: Highest Fourier mode of the fitted Michell series (``n = 2`` is Kirsch's; 4 leaves room
 #: for a far field disturbed by the mesh's band or a finite domain; 2, 4 and 6 agreed within
-#: 0.3 MPa on 9-48 wall segments).
+#: 0.4 MPa at L/2 on 9-48 wall segments).
 FIT_MODES = 4
 #: Points per cluster arc at which the point method is evaluated (a 30 deg wall arc, 12
 #: segments, sampled every 3.75 deg: the hoop stress's maximum is missed by < 0.03 MPa).
