@@ -138,7 +138,12 @@ def test_shear_dilation_on():
     km = cm.flow.permeability
     expect = np.where(cs != 0, km + wh**3 / (12.0 * delta), km)
     assert np.allclose(k_dil, expect, rtol=1e-12, atol=0.0)
-    assert np.all(k_dil[slipped] > k_plain[slipped])
+    # a slip whose dilation is below the aperture's round-off cannot change k (two such
+    # clusters appear with the critical-distance wall: tan(psi) us / w_h ~ 1e-18, a slip of
+    # round-off; the others 8.5e-4 and more)
+    visible = slipped & (np.tan(np.radians(psi)) * us > 1e-9 * wh)
+    assert visible.any()
+    assert np.all(k_dil[visible] > k_plain[visible])
 
 
 def _two_cycles(flowback_rate: str, flowback_to: str) -> dict:
