@@ -16,7 +16,13 @@ Wellbore stresses (thesis App. C)
   ``P_b = 3 sigma_h - sigma_H - p0 + T0`` (Eq. C.11);
 * :func:`reopening_pressure` -- reopening of an existing fracture at the wall,
   ``P_r = 3 sigma_h - sigma_H - p0`` (Eq. C.13), and :func:`wellbore_reopening_pressure`
-  with the far field's floor ``max(sigma_h, P_r)``.
+  with the far field's floor ``max(sigma_h, P_r)``;
+* :func:`critical_distance` -- the material length ``L = (K_Ic / T0)^2 / pi`` of the Theory
+  of Critical Distances, and :func:`critical_distance_breakdown` -- the well pressure at
+  which the Kirsch hoop stress at ``L/2`` from an impermeable wall reaches ``-T0`` (the
+  point method; Hubbert-Willis as ``L -> 0``);
+* :func:`hole_cracks_factor`, :func:`hole_cracks_stress_intensity` -- two symmetric radial
+  cracks at a circular hole under tension normal to them (Bowie; Tada's closed form).
 
 Fractures (Sneddon, LEFM)
 -------------------------
@@ -44,6 +50,10 @@ import numpy as np
 
 __all__ = [
     "carter_coefficient",
+    "critical_distance",
+    "critical_distance_breakdown",
+    "hole_cracks_factor",
+    "hole_cracks_stress_intensity",
     "hubbert_willis",
     "kgd_critical_net_pressure",
     "kgd_half_length",
@@ -178,6 +188,71 @@ def kirsch_wall_hoop(theta, sigma_x, sigma_y, p_w, tau_xy=0.0):
     th = np.asarray(theta, dtype=float)
     return (sigma_x + sigma_y - 2.0 * (sigma_x - sigma_y) * np.cos(2.0 * th)
             - 4.0 * tau_xy * np.sin(2.0 * th) - p_w)
+
+
+def critical_distance(toughness, tensile_strength):
+    """Material length of the Theory of Critical Distances ``L = (K_Ic / T0)^2 / pi`` [m].
+
+    The stress ahead of a crack tip, ``K / sqrt(2 pi r)``, equals ``T0`` at ``r = L/2``
+    exactly when ``K = K_Ic`` (the point method), and its mean over ``2 L`` does too (the
+    line method): a strength criterion applied at that distance is the toughness criterion
+    at a crack tip, and a strength criterion at a smooth notch with a length scale.
+    """
+    return (toughness / tensile_strength) ** 2 / math.pi
+
+
+def critical_distance_breakdown(sigma_h, sigma_H, p0, T0, radius, distance):
+    """Well pressure [Pa] at which the Kirsch hoop stress at ``distance`` from an
+    impermeable wall, along sigma_H, less the pore pressure, reaches ``-T0``.
+
+    With ``q = (a / (a + d))^2`` the hoop stress there is (:func:`kirsch_polar` at
+    ``t = 0``) ``(sH + sh)/2 (1 + q) - (sH - sh)/2 (1 + 3 q^2) - P q``, linear in the well
+    pressure ``P``, so
+
+        P = [(sH + sh)/2 (1 + q) - (sH - sh)/2 (1 + 3 q^2) - p0 + T0] / q.
+
+    With ``distance = L/2`` (:func:`critical_distance`) it is the point method's
+    initiation pressure; at ``distance = 0`` it is :func:`hubbert_willis`. The hoop stress
+    has its minimum along sigma_H at every distance (the ``cos 2t`` term's factor
+    ``1 + 3 q^2`` is positive), so the point lies there.
+    """
+    q = (radius / (radius + distance)) ** 2
+    mean = 0.5 * (sigma_H + sigma_h)
+    dev = 0.5 * (sigma_H - sigma_h)
+    return (mean * (1.0 + q) - dev * (1.0 + 3.0 * q * q) - p0 + T0) / q
+
+
+def hole_cracks_factor(crack_length, radius):
+    """Geometry factor ``F(s)`` of two symmetric radial cracks at a circular hole.
+
+    Infinite plate, traction-free hole of radius ``a`` and crack faces, uniform tension
+    ``S`` at infinity normal to the cracks, each crack ``l`` long from the wall:
+    ``K_I = S sqrt(pi l) F(s)``, ``s = l / (a + l)``, with Tada's closed form of Bowie's
+    solution (Tada, Paris & Irwin, *The Stress Analysis of Cracks Handbook*)
+
+        F(s) = 0.5 (3 - s) [1 + 1.243 (1 - s)^3],
+
+    stated there to within 1 % for every ``s``. Limits: ``s -> 0`` gives ``3.36``, the
+    edge crack (``1.1215``) in the hole's hoop stress ``3 S``; ``s -> 1`` gives 1, the
+    crack of half-length ``a + l`` that the hole and both cracks become.
+    """
+    s = crack_length / (radius + crack_length)
+    return 0.5 * (3.0 - s) * (1.0 + 1.243 * (1.0 - s) ** 3)
+
+
+def hole_cracks_stress_intensity(tension, crack_length, radius):
+    """``K_I = S sqrt(pi l) F(s)`` [Pa m^0.5] of two symmetric radial cracks of length
+    ``l`` at a traction-free circular hole of radius ``a`` under far-field tension ``S``
+    normal to them (:func:`hole_cracks_factor`).
+
+    A borehole whose fluid at pressure ``P`` fills the cracks too, under the far field
+    ``sigma_par`` along the cracks and ``sigma_n`` across them (compression positive), is
+    this problem plus a uniform compression ``P`` (no ``K``) when ``sigma_par = P``: then
+    ``S = P - sigma_n``. That is the breakdown of a flaw whose well pressure at breakdown
+    equals the stress along it, the case the model's flaw test checks.
+    """
+    return tension * _sqrt(math.pi * crack_length) * hole_cracks_factor(crack_length,
+                                                                        radius)
 
 
 # =========================================================================== fractures

@@ -398,8 +398,20 @@ def test_mdem_crack_tip_criterion_uses_the_singular_part_at_clusters_ahead_of_th
     other[members] = other[leads] = False
     np.testing.assert_allclose(mt[other & tip], crack_tip_margin(
         st.stress[other & tip], pf[other & tip], T[other & tip]))
-    np.testing.assert_allclose(mt[other & ~tip],
-                               tensile_margin(st.effective_stress[other & ~tip], T[other & ~tip]))
+    # the intact near-wall clusters off the crack get the point method at L/2 from the
+    # wall (one material length with K_IC), every other cluster the cluster average
+    near = np.zeros(mesh.n_triangles, dtype=bool)
+    near[model.wall.clusters] = True
+    near &= (st.cluster_state == INTACT) & ~touching
+    assert near.any()
+    wc, wt, _ = model.wall.margins(st.stress, st.pore_pressure, st.wall_pressure, T,
+                                   model.strengths(st.cluster_state)[1],
+                                   model.rock.friction_angle,
+                                   (st.cluster_state != INTACT) | touching)
+    np.testing.assert_allclose(mt[wc], wt)
+    plain = other & ~tip & ~near
+    np.testing.assert_allclose(mt[plain],
+                               tensile_margin(st.effective_stress[plain], T[plain]))
     # below the toughness nothing at the tips fails: K_I / K_IC - 1 = -0.79 / -0.78
     assert np.all(mt[tip] < 0.0) and np.all(mt[leads] < 0.0)
     # scaling off: no tip criterion at all

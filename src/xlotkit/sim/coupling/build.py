@@ -132,7 +132,7 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
     scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
                               reference_area=rk.strength_scaling_reference_area,
                               exponent=rk.strength_scaling_exponent,
-                              toughness=rk.toughness)
+                              toughness=rk.toughness, wall=rk.wall_criterion)
     rock = RockProperties(young=rk.youngs_modulus, poisson=rk.poisson_ratio, biot=biot,
                           tensile_strength=rk.tensile_strength, cohesion=rk.cohesion,
                           friction_angle_deg=rk.friction_angle,
@@ -152,7 +152,7 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
                                           else rk.sealed_aperture))
     mech = MechanicsModel(mesh, rock, InSituStress(sx, sy, sxy, p0, pw0), boundary=boundary,
                           interfaces=planes, fracture_plane=fplane, crack_planes=cplanes,
-                          closure=closure)
+                          closure=closure, permeable_wall=rk.permeability > 0.0)
     cr = (float(np.min(grain_pore_compressibility(biot, rk.porosity, rk.youngs_modulus,
                                                   rk.poisson_ratio)))
           if eff.poroelastic else 0.0)

@@ -377,7 +377,10 @@ def breakdown_pressure(
             start_azimuth=(math.nan if st_hi is None
                            else crack_start_azimuth(model, st_hi.cluster_state)))
 
-    first = wall_pressure_at_first_failure(model, state, p_max, dp=dp, tol=tol)
+    # a crack already connected to the hole (a flaw) carries the hole's fluid from the start
+    flaw = crack_geometry(model, state.cluster_state)[0]
+    first = wall_pressure_at_first_failure(model, state, p_max, dp=dp, tol=tol,
+                                           filled=flaw if flaw.any() else None)
     if first is None:
         return result(math.nan, False, f"no cluster fails up to p_max = {p_max:g} Pa",
                       math.nan, p_max, state, 0.0, math.nan, 0.0, None, [])
@@ -456,6 +459,7 @@ def wall_pressure_at_first_failure(
     dp: float | None = None,
     tol: float = 1e3,
     pressurize_failed: bool = False,
+    filled: np.ndarray | None = None,
 ) -> BreakdownResult | None:
     """Raise the wall pressure (pore pressure unchanged: impermeable wall) until a cluster
     fails; locate that pressure by bisection.
@@ -475,6 +479,9 @@ def wall_pressure_at_first_failure(
     pressurize_failed : bool
         If True the failed clusters (a crack connected to the hole) are filled with
         the wall pressure; otherwise all cluster pressures stay as in ``state``.
+    filled : ndarray of bool (n_c,), optional
+        The clusters filled with the wall pressure, instead of every failed one
+        (:func:`breakdown_pressure` passes the hole-connected crack of its start).
 
     Returns
     -------
@@ -499,6 +506,8 @@ def wall_pressure_at_first_failure(
 
     base_p = np.asarray(state.pore_pressure)
     failed = np.asarray(state.cluster_state) != INTACT
+    if filled is not None:
+        failed, pressurize_failed = np.asarray(filled, dtype=bool), True
 
     def pores(p: float) -> np.ndarray:
         return np.where(failed, p, base_p) if pressurize_failed else base_p

@@ -86,6 +86,16 @@ class StrengthScaling:
         ``reference_area`` is ignored; needs ``exponent = 1/4`` (the only exponent for
         which the tip criterion is a toughness) and ``T > 0``. See
         :func:`xlotkit.sim.mechanics.failure.crack_tip_toughness` for the validity range.
+    wall : {"critical_distance", "cluster"}
+        Tensile initiation at the hole wall when the crack tips have a toughness (mode
+        ``"crack_tip"``, exponent 1/4). ``"critical_distance"`` (default): the point method
+        with the material length ``L = (K_IC / T)^2 / pi`` of that same toughness, the
+        effective stress recovered at ``L/2`` from the wall
+        (:mod:`xlotkit.sim.mechanics.wall`), so initiation and propagation share one
+        length and initiation does not depend on the wall clusters' size. ``"cluster"``:
+        the cluster-average stress of the wall clusters (the former criterion; its
+        initiation pressure falls as the wall is refined). Without a toughness the
+        wall keeps the cluster average whatever this says.
     """
 
     enabled: bool = False
@@ -93,6 +103,7 @@ class StrengthScaling:
     exponent: float = 0.25
     mode: Literal["crack_tip", "all"] = "crack_tip"
     toughness: float | None = None
+    wall: Literal["critical_distance", "cluster"] = "critical_distance"
 
     def __post_init__(self) -> None:
         _range(self, "reference_area", "strength_scaling", 0.0, None, lo_open=True)
@@ -105,6 +116,10 @@ class StrengthScaling:
         if self.mode not in ("crack_tip", "all"):
             raise InputError(f"unknown scaling mode {self.mode!r}", key="strength_scaling.mode",
                              expected="'crack_tip' or 'all'")
+        if self.wall not in ("critical_distance", "cluster"):
+            raise InputError(f"unknown wall criterion {self.wall!r}",
+                             key="strength_scaling.wall",
+                             expected="'critical_distance' or 'cluster'")
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from xlotkit import formulas
 from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.config import RockProperties
 
@@ -18,6 +19,7 @@ __all__ = [
     "TIP_TOUGHNESS_FACTOR",
     "crack_tip_margin",
     "crack_tip_toughness",
+    "material_length",
     "mohr_coulomb_margin",
     "principal_stresses",
     "reference_area",
@@ -347,6 +349,21 @@ def crack_tip_toughness(rock: RockProperties) -> float | None:
     if not sc.enabled or sc.mode != "crack_tip" or sc.exponent != 0.25:
         return None
     return TIP_TOUGHNESS_FACTOR * rock.tensile_strength * reference_area(rock) ** 0.25
+
+
+def material_length(rock: RockProperties) -> float | None:
+    """Material length ``L = (K_IC / T)^2 / pi`` [m] shared by the crack-tip and the wall
+    criteria (:func:`xlotkit.formulas.critical_distance`), or None when the crack tips have
+    no toughness (:func:`crack_tip_toughness`) or the wall keeps the cluster average
+    (``StrengthScaling.wall = "cluster"``).
+
+    The point method at ``L/2`` ahead of a crack tip is ``K_I = K_IC``; at the wall it is
+    the initiation criterion of :mod:`xlotkit.sim.mechanics.wall`.
+    """
+    k_ic = crack_tip_toughness(rock)
+    if k_ic is None or rock.scaling.wall != "critical_distance":
+        return None
+    return formulas.critical_distance(k_ic, rock.tensile_strength)
 
 
 def strength_fields(rock: RockProperties, area: np.ndarray,

@@ -67,6 +67,7 @@ from xlotkit.sim.mechanics.config import (
 from xlotkit.sim.mechanics.failure import (
     crack_tip_margin,
     crack_tip_toughness,
+    material_length,
     mohr_coulomb_margin,
     strength_fields,
     tensile_margin,
@@ -96,6 +97,7 @@ from xlotkit.sim.mechanics.states import (
     SLIP,
     STICK,
 )
+from xlotkit.sim.mechanics.wall import WallCriterion
 from xlotkit.sim.mesh import BOTTOM, HOLE, LEFT, Mesh
 
 __all__ = [
@@ -242,6 +244,10 @@ class MechanicsModel:
         a failed cluster without a plane; with the joint length ``l_m``
         (:func:`~xlotkit.sim.mechanics.planes.joint_lengths`) a closed contact carries
         ``F_n = -l_m sigma(delta)``.
+    permeable_wall : bool
+        The well's fluid enters the rock at the hole wall (a coupled model with a
+        permeable rock): the wall criterion's pore pressure has the well pressure on the
+        wall (:class:`~xlotkit.sim.mechanics.wall.WallCriterion`).
 
     Notes
     -----
@@ -260,6 +266,7 @@ class MechanicsModel:
         fracture_plane: FracturePlane | None = None,
         crack_planes: CrackPlanes | None = None,
         closure: ClosureLaw | None = None,
+        permeable_wall: bool = False,
     ) -> None:
         if not isinstance(mesh, Mesh):
             raise InputError("expected a Mesh", key="mesh")
@@ -298,6 +305,12 @@ class MechanicsModel:
         self.tensile_strength, self.cohesion = strength_fields(
             rock, g.area, scaled=sc.enabled and sc.mode == "all")
         self._tip_scaling = sc.enabled and sc.mode == "crack_tip"
+        # tensile initiation at the hole wall by the point method at L/2 (one material
+        # length with the crack tips' K_IC); None: the wall keeps the cluster average
+        length = material_length(rock) if self._tip_scaling else None
+        self.wall = (WallCriterion(mesh, length, permeable_wall=permeable_wall)
+                     if length is not None and mesh.hole_radius is not None
+                     and len(mesh.hole_nodes) else None)
         self.tan_phi = math.tan(rock.friction_angle)
         # contact directions used once a cluster is failed (interfaces override some)
         self.c_normal = g.normal.copy()
@@ -994,13 +1007,26 @@ class MechanicsModel:
         clusters do not fail in tension (margin ``-T_i``: one cluster per front and failure
         round, the front is re-measured after each). Tip clusters of a group that is not a
         crack end (no lead) keep the cluster-average criterion on the singular part
-        (:func:`~xlotkit.sim.mechanics.failure.crack_tip_margin`). Meaningful for intact
+        (:func:`~xlotkit.sim.mechanics.failure.crack_tip_margin`). With a toughness and
+        ``StrengthScaling.wall = "critical_distance"`` the tensile margin of the intact
+        near-wall clusters off any crack, and their Mohr-Coulomb margin, are the point
+        method's at ``L/2`` from the wall
+        (:class:`~xlotkit.sim.mechanics.wall.WallCriterion`). Meaningful for intact
         clusters.
         """
         eff = np.asarray(state.effective_stress)
         cs = np.asarray(state.cluster_state)
         T, S0 = self.strengths(cs)
         mt = tensile_margin(eff, T)
+        ms = mohr_coulomb_margin(eff, S0, self.rock.friction_angle)
+        if self.wall is not None:
+            # near-wall clusters off any crack: the point method at L/2 from the wall
+            off = (cs != INTACT) | self.touches_crack(cs)
+            wm = self.wall.margins(np.asarray(state.stress), np.asarray(state.pore_pressure),
+                                   float(state.wall_pressure), T, S0,
+                                   self.rock.friction_angle, off)
+            if wm is not None:
+                mt[wm[0]], ms[wm[0]] = wm[1], wm[2]
         if self._tip_scaling:
             tip, pf = self.crack_tips(state)
             if tip.any():
@@ -1015,7 +1041,7 @@ class MechanicsModel:
                     lead_margin[fr.lead] = max(m, lead_margin.get(fr.lead, -math.inf))
                 for c, m in lead_margin.items():
                     mt[c] = m
-        return mt, mohr_coulomb_margin(eff, S0, self.rock.friction_angle)
+        return mt, ms
 
     def step(
         self,

@@ -132,6 +132,8 @@ CONDITIONS: dict[str, Condition] = {
         lambda sc: _two_d(sc) and sc.effects.strength_scaling and sc.rock.toughness is None,
         "effects.strength_scaling = true without rock.toughness (which sets the reference "
         "area from T0)"),
+    "rock.wall_criterion": Condition(lambda sc: _two_d(sc) and sc.effects.strength_scaling,
+                                     "effects.strength_scaling = true (the 2D model)"),
     "rock.toughness": Condition(lambda sc: _two_d(sc) and sc.effects.strength_scaling,
                                 "effects.strength_scaling = true (the 2D model)"),
     "rock.fracture_friction_angle": Condition(

@@ -191,6 +191,12 @@ SCENE_KEYS: dict[str, dict[str, KeySpec]] = {
                         doc="fracture toughness K_IC of crack-tip clusters (used when "
                             "effects.strength_scaling; sets A_ref from T0, needs the "
                             "exponent 0.25)"),
+        "wall_criterion": _k("choice", choices=("critical_distance", "cluster"),
+                             doc="tensile and shear initiation at the hole wall (used when "
+                                 "effects.strength_scaling): critical_distance = the stress "
+                                 "at L/2 from the wall, L = (K_IC/T0)^2/pi with the crack "
+                                 "tips' toughness (one material length, independent of the "
+                                 "wall's mesh); cluster = the wall clusters' average stress"),
         "fracture_friction_angle": _k("angle", "deg", 0.0, 70.0,
                                       doc="friction angle of the faces of tensile cracks "
                                           "on a crack plane (crack_plane = 'stress'; "

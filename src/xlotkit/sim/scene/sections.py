@@ -156,6 +156,7 @@ class Rock:
     strength_scaling_exponent: float = 0.25
     strength_scaling_reference_area: float = 1e-4
     toughness: float | None = None
+    wall_criterion: Literal["critical_distance", "cluster"] = "critical_distance"
     fracture_friction_angle: float = 0.0
     crack_plane: str = "stress"
     closure_law: str = "smooth"
