@@ -64,14 +64,19 @@ def _breakdown_dict(**over):
         "mesh": {"growth": 1.3, "wall_element_size": 2 * math.pi * 0.15 / 10,
                  "fracture_band": True, "band_width": "0.5 m", "band_element_size": "0.25 m",
                  "band_length": "1.2 m"},
+        # the cluster-average wall criterion: on this 10-segment wall it breaks down
+        # abruptly (a crack run of ~20 clusters within ~0.1 s), the event the coupling
+        # schemes are compared through; the critical-distance criterion initiates at
+        # 33.6 MPa and grows stably on this coarse band (measured: FBP 36.3 MPa and a
+        # 0.9 MPa drop), too gentle a breakdown to tell the schemes apart
         "rock": {"youngs_modulus": "10 GPa", "tensile_strength": "3 MPa",
-                 "permeability": 1e-18},
+                 "permeability": 1e-18, "wall_criterion": "cluster"},
         "stresses": {"sigma_H": "40 MPa", "sigma_h": "30 MPa", "pore_pressure": "20 MPa"},
         "effects": {"strength_scaling": True},
         "fluid": {"density": "1.2 sg"},
         "completion": {"well_compliance": 2e-9, "initial_pressure": "39 MPa"},
         "numerics": {"dt_max": "1 s", "dp_max": "0.5 MPa", "dt_min": 1e-4},
-        "schedule": {"phase": [{"kind": "pump", "rate": "300 l/min", "volume": "0.00366 m3"}]},
+        "schedule": {"phase": [{"kind": "pump", "rate": "300 l/min", "volume": "0.0050 m3"}]},
     }
     for k, v in over.items():
         d[k] = {**d.get(k, {}), **v} if isinstance(v, dict) else v
@@ -367,7 +372,7 @@ TOL = 1e-5           # a tight WFD tolerance: 0.4 kPa at 40 MPa
 
 @pytest.fixture(scope="module")
 def breakdown():
-    """Monolithic and WFD (tolerance TOL) through breakdown and the first 20 ms of the
+    """Monolithic and WFD (tolerance TOL) through breakdown and the first ~0.3 s of the
     crack run; every accepted WFD step is recorded with its start state, and the
     monolithic step of the same length from the same segment state is computed beside it
     (the segment with the well's storage on its borehole, i.e. MDEMEngine's step)."""
@@ -413,9 +418,10 @@ def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
     for e in (mono, wfd):
         r = e.rows()
         k = int(np.argmax(r["bottomhole_pressure"]))
-        # FBP ~40.6 MPa, then the well pressure falls while clusters fail (measured: to
-        # 36.1 MPa, 21 clusters, monolithic; 39.1 MPa, 12 clusters, WFD: the crack run is
-        # step-size dependent, so the two are compared step by step below)
+        # FBP ~40.6 MPa, then the well pressure falls while clusters fail (measured:
+        # 40.62 MPa to 38.14 MPa, 19 clusters, monolithic; 40.65 to 37.32 MPa, 26
+        # clusters, WFD: the crack run is step-size dependent, so the two are compared
+        # step by step below)
         assert 40.0e6 < r["bottomhole_pressure"][k] < 41.0e6
         assert r["bottomhole_pressure"][-1] < r["bottomhole_pressure"][k] - 1e6
         assert r["failed_clusters"][-1] >= 10
@@ -423,6 +429,8 @@ def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
 
 def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
     mono, wfd, pairs = breakdown
+    rm = mono.rows()
+    t_first = min(old.t for old, dt, new, r, m in pairs if new.n_failed > 0)
     n_same = 0
     for old, dt, new, r, m in pairs:
         start = abs(old.well_pressure - old.segment_pressure)
@@ -444,23 +452,27 @@ def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
             # the well's storage, so the failure rounds (and the contact references they
             # set) can differ, and a non-smooth contact law can land on another branch
             # from a start a few Pa away. Measured:
-            # the failed counts agree in all but the breakdown step (5 vs 6 clusters,
-            # 0.49 MPa); elsewhere up to 7.8 kPa.
-            assert abs(m.state.coupled.n_failed - new.n_failed) <= 1
+            # through the breakdown burst (0.1 s from the WFD run's first failure) the failed counts
+            # agree to one cluster (measured: 2 of 8 such steps differ by one, up to
+            # 35 kPa); later, in the running crack, a step whose rounds fail 3-4 clusters
+            # in one and none in the other (measured twice), 0.68 MPa apart
+            if old.t <= t_first + 0.1:
+                assert abs(m.state.coupled.n_failed - new.n_failed) <= 1
             assert dp < 1e6
-    assert n_same >= 0.6 * len(pairs)         # measured 20 of 24
+    assert n_same >= 0.6 * len(pairs)         # measured 41 of 53
     # pressurisation: the same BHP as the monolithic run to TOL (both runs' rows before
     # the first failure; linear interpolation of the monolithic run costs < 1 Pa)
-    rm, rw = mono.rows(), wfd.rows()
+    rw = wfd.rows()
     t_f = rm["t"][rm["failed_clusters"] == 0][-1]
     sel = (rw["t"] <= t_f) & (rw["failed_clusters"] == 0)
     dp = rw["bottomhole_pressure"][sel] - np.interp(rw["t"][sel], rm["t"],
                                                     rm["bottomhole_pressure"])
     assert np.max(np.abs(dp)) <= TOL * 41e6
-    # and the FBP to a few kPa (each is sampled at its run's last step before the drop;
-    # measured 2.1 kPa apart)
+    # and the FBP to a few tens of kPa: each is sampled at its run's last step before the
+    # drop, and the two runs' steps differ there (measured 24 kPa apart; the last
+    # pre-failure step rises ~0.37 MPa, so a sampling gap bounds it)
     assert rw["bottomhole_pressure"].max() == pytest.approx(rm["bottomhole_pressure"].max(),
-                                                            abs=10e3)
+                                                            abs=50e3)
 
 
 def test_wfd_matches_to_its_tolerance_every_step(breakdown):
@@ -483,8 +495,8 @@ def test_wfc_lags_at_breakdown(breakdown, wfc_breakdown):
     assert first > 0
     # the segment has broken down, the well keeps pressurising: the controller moves the
     # well's fluid only as the error accumulates (thesis 4.5.3). Measured: the well at
-    # 41.09 MPa at the end, 1.41 MPa above the segment, against the monolithic run's fall
-    # to 36.1 MPa within 20 ms of its FBP
+    # 41.11 MPa at the end, 1.31 MPa above the segment (1.54 MPa at most), against the
+    # monolithic run's fall to 38.1 MPa within 0.3 s of its FBP
     assert r["well_pressure"][-1] > r["well_pressure"][first]
     assert r["well_pressure"][-1] > mono.rows()["bottomhole_pressure"].max()
     assert np.max(np.abs(mis[first:])) > 1e6

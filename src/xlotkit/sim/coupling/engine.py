@@ -435,12 +435,16 @@ class MDEMEngine:
         # continuation in the step length, then longer steps over a turning point
         r, h_try = stp.attempt(h_try, self.tsc, running=self._running, limit=target - t,
                                at_floor=at_floor)
-        if (r.success and not at_floor and r.new_failures == 0
-                and abs(r.dp_w) > float(num.dp_max)):
+        dp_smooth = r.dp_w if r.new_failures == 0 else r.dp_w_smooth
+        if (r.success and not at_floor and (r.new_failures == 0 or not self._running)
+                and abs(dp_smooth) > float(num.dp_max)):
             # the pressure-change rule bounds the smooth change of p_w per step; a jump at
-            # a cluster failure does not shrink with the step and is not cut for
+            # a cluster failure does not shrink with the step and is not cut for, but the
+            # pressurisation before the first failure of a crack does: a long step that
+            # pumps through the initiation pressure would put the breakdown up to its
+            # whole pressure rise late (while the crack runs its own limits govern)
             stp.state = old
-            self._h = max(h_try * ev.dp_fraction * float(num.dp_max) / abs(r.dp_w),
+            self._h = max(h_try * ev.dp_fraction * float(num.dp_max) / abs(dp_smooth),
                           num.dt_min)
             return self._outcome(False, t, "rejected: pressure change")
         why = self._reject_step(old, stp.state) if r.success and not at_floor else None

@@ -461,7 +461,10 @@ class WellCoupledStepper:
                                                          rel_well),
                          force_residual=r.force_residual, new_failures=r.new_failures,
                          failure_rounds=r.failure_rounds, dp_w=dpw, n_failed=new.n_failed,
-                         continuation_levels=r.continuation_levels)
+                         continuation_levels=r.continuation_levels,
+                         # before a failure round the segment's borehole pressure moves
+                         # with the well's (the coupling's tolerance): its smooth part
+                         dp_w_smooth=dpw if r.new_failures == 0 else r.dp_w_smooth)
         self.counters.steps += 1
         self.counters.failed_clusters += r.new_failures
         self.history.append(res)

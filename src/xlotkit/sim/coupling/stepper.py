@@ -329,6 +329,10 @@ class StepResult:
         Solves of the step (1 + rounds with new failures).
     dp_w : float
         Well-pressure change [Pa].
+    dp_w_smooth : float
+        Well-pressure change [Pa] of the step's last converged solve before its first
+        failure round: the smooth part of the change, which shrinks with the step (equal
+        to ``dp_w`` in a step without failures).
     n_failed : int
         Failed clusters after the step.
     continuation_levels : int
@@ -357,6 +361,7 @@ class StepResult:
     n_failed: int = 0
     continuation_levels: int = 0
     deferred_failures: int = 0
+    dp_w_smooth: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -657,6 +662,7 @@ class CoupledStepper:
         h, h_done, x_done, h_prev, x_prev = dt, 0.0, x, None, None
         levels = 0
         deferred = 0
+        dpw_smooth = math.nan
         while True:
             backoff = continuation and not undrained and levels < ctl.continuation_levels
             x_start = x
@@ -680,6 +686,8 @@ class CoupledStepper:
                 x = self._predict(h, h_done, x_done, h_prev, x_prev)
                 levels += 1
                 continue
+            if new_total == 0:
+                dpw_smooth = float(res.state.p_w - old.p_w)
             cand = np.zeros(0, dtype=np.int64)
             if not undrained and ctl.check_failure:
                 trial = model.finish_state(res, st).mechanics
@@ -754,7 +762,8 @@ class CoupledStepper:
         self.counters.failed_clusters += new_total
         r = StepResult(True, reason, its, solves, step_dt, t_new, new_failures=new_total,
                        failure_rounds=rounds, n_failed=self.state.n_failed,
-                       continuation_levels=levels, deferred_failures=deferred, **diag)
+                       continuation_levels=levels, deferred_failures=deferred,
+                       dp_w_smooth=dpw_smooth, **diag)
         self.history.append(r)
         return r
 
