@@ -69,6 +69,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
+from scipy.special import erfc
 
 from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.failure import mohr_coulomb_margin, tensile_margin
@@ -91,6 +92,18 @@ ARC_SAMPLES = 9
 # points on the radial segment from the wall to a criterion point at which the clusters
 # crossed are found (the pore-pressure cap of WallCriterion.margins)
 _CAP_SAMPLES = 8
+# the leak-off profile's fit (WallCriterion.point_pore_pressure): ray samples out to
+# _RAY_REACH times the point's distance from the wall, sub-triangles per cluster edge for
+# the cluster averages of the profile, and the grid of its length delta (relative to the
+# point's distance; 10^(6/240) = 1.06 per step, refined by a parabola)
+_RAY_SAMPLES = 16
+_RAY_REACH = 2.0
+_QUAD_DIVISIONS = 8
+_DELTA_GRID = np.logspace(-3.0, 3.0, 241)
+# cluster pressures this far (fraction of p_w - p0) outside [p0, p_w] are not a leak-off
+# profile from the wall (the well pressure fell below the rock's, or the front has met
+# another source): the point keeps the interpolation
+_PROFILE_TOL = 0.02
 # a fit whose area-weighted rms residual exceeds this fraction of the stress scale is not
 # an intact field around a hole (a crack within the region): the clusters keep the
 # cluster-average criterion for that check
@@ -167,6 +180,10 @@ class WallCriterion:
     permeable_wall : bool
         The well's fluid enters the rock at the wall: the wall nodes carry the well
         pressure in the pore-pressure interpolation.
+    far_pressure : float, optional
+        The rock's in-situ pore pressure ``p0`` [Pa], where the leak-off profile ends;
+        with ``permeable_wall`` the points' pore pressure is that profile's, fitted to
+        the clusters on their rays (:meth:`point_pore_pressure`).
 
     Attributes
     ----------
@@ -176,7 +193,7 @@ class WallCriterion:
 
     def __init__(self, mesh: Mesh, material_length: float, fit_radius: float = FIT_RADIUS,
                  n_modes: int = FIT_MODES, arc_samples: int = ARC_SAMPLES,
-                 permeable_wall: bool = False) -> None:
+                 permeable_wall: bool = False, far_pressure: float | None = None) -> None:
         if mesh.hole_center is None or mesh.hole_radius is None or len(mesh.hole_nodes) == 0:
             raise InputError("the critical-distance wall criterion needs a mesh with a hole",
                              key="mesh")
@@ -228,6 +245,108 @@ class WallCriterion:
         seg = c0 + (a + np.outer(frac, np.full(len(ang), 0.5 * self.length)).T)[..., None] \
             * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
         self._pt_path = _locate(mesh, seg.reshape(-1, 2))[0].reshape(len(ang), -1)
+        # the leak-off profile along each point's ray (point_pore_pressure)
+        self.far_pressure = None if far_pressure is None else float(far_pressure)
+        if self.permeable_wall and self.far_pressure is not None:
+            self._setup_profile(mesh, ang)
+
+    # ------------------------------------------------------------------ pore pressure
+    def _setup_profile(self, mesh: Mesh, ang: np.ndarray) -> None:
+        """Geometry of the leak-off profile fit: the clusters on each point's ray and the
+        cluster averages of ``erfc(x / delta)`` on the grid of ``delta``."""
+        a, c0 = self.radius, self.center
+        s = 0.5 * self.length
+        frac = (np.arange(_RAY_SAMPLES) + 0.5) / _RAY_SAMPLES
+        dist = a + _RAY_REACH * s * frac                                    # (k,)
+        pts = c0 + dist[None, :, None] * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
+        cells = _locate(mesh, pts.reshape(-1, 2))[0].reshape(len(ang), -1)
+        uniq, inv = np.unique(cells, return_inverse=True)
+        self._ray_cells = uniq
+        # samples per (point, cluster): the least-squares weights of the clusters' targets
+        self._ray_weights = sp.csr_matrix(
+            (np.ones(inv.size), (np.repeat(np.arange(len(ang)), _RAY_SAMPLES), inv.ravel())),
+            shape=(len(ang), len(uniq)))
+        # cluster averages of erfc(x / delta), x the distance from the wall: equal-area
+        # sub-triangles of each cluster (their centroids)
+        n = _QUAD_DIVISIONS
+        bary = []
+        for i in range(n):
+            for j in range(n - i):
+                bary.append(((i + 1 / 3) / n, (j + 1 / 3) / n))          # upright
+                if i + j < n - 1:
+                    bary.append(((i + 2 / 3) / n, (j + 2 / 3) / n))      # inverted
+        bary = np.array(bary)
+        lam = np.column_stack([1.0 - bary.sum(axis=1), bary])             # (q, 3)
+        X = mesh.nodes[mesh.triangles[uniq]]                               # (u, 3, 2)
+        q = np.einsum("qk,ukd->uqd", lam, X) - c0
+        x = np.maximum(np.hypot(q[..., 0], q[..., 1]) - a, 0.0)           # (u, q)
+        delta = s * _DELTA_GRID
+        self._profile_mean = erfc(x[:, :, None] / delta[None, None, :]).mean(axis=1)
+        self._profile_point = erfc(s / delta)                             # (g,)
+
+    def point_pore_pressure(self, pore_pressure: np.ndarray, wall_pressure: float
+                            ) -> np.ndarray:
+        """Pore pressure [Pa] at the criterion's points (``L/2`` from the wall).
+
+        With a permeable wall and the far-field pore pressure ``p0`` (``far_pressure``),
+        the leak-off profile along each point's ray is taken as the diffusion profile
+        from a wall held at ``p_w``, ``p0 + (p_w - p0) erfc(x / delta)``, with the one
+        length ``delta`` whose cluster averages best match the pressures of the clusters
+        the ray crosses out to ``2 L/2`` (least squares over the ray's samples). The
+        clusters' pressures are cell averages of the flow: a wall cluster larger than the
+        leak-off front holds a lower average than the rock at ``L/2`` has, and reading it
+        (or interpolating linearly from the wall value, capped by it) made the point's
+        pressure, and with it the initiation pressure, follow the wall's mesh (measured,
+        docs/mechanics.md). Points whose clusters' pressures lie outside ``[p0, p_w]``
+        (the well below the rock, a second source) keep the interpolation below.
+
+        Otherwise: the cluster pressures averaged by area onto the nodes, interpolated
+        linearly (the wall nodes at ``p_w`` when the wall is permeable), capped by the
+        largest pressure of the clusters between the wall and the point.
+
+        Parameters
+        ----------
+        pore_pressure : ndarray (n_c,)
+            Cluster pressures [Pa].
+        wall_pressure : float
+            [Pa].
+
+        Returns
+        -------
+        ndarray (n_points,)
+        """
+        pp = np.asarray(pore_pressure, dtype=float)
+        p = self._pt_pressure @ pp + self._pt_wall * wall_pressure
+        if not self.permeable_wall:
+            return p
+        # the linear profile from the wall value holds no more fluid than the clusters
+        # between the wall and the point: a pressure that falls away from the wall is
+        # below their largest there (without this cap a tight rock, whose leak-off
+        # front is far thinner than a cluster, would see the well pressure at once)
+        p = np.minimum(p, pp[self._pt_path].max(axis=1))
+        if self.far_pressure is None:
+            return p
+        p0 = self.far_pressure
+        dp = wall_pressure - p0
+        if abs(dp) <= 1e-6 * max(abs(wall_pressure), 1.0):
+            return p
+        m = (pp[self._ray_cells] - p0) / dp                                # (u,)
+        bad = (m < -_PROFILE_TOL) | (m > 1.0 + _PROFILE_TOL)
+        ok = (self._ray_weights @ bad.astype(float)) == 0.0
+        if not ok.any():
+            return p
+        # per point: sum over its ray's samples of (cluster average of the profile -
+        # cluster's own value)^2, on the grid of delta
+        res = self._ray_weights[ok] @ ((self._profile_mean - m[:, None]) ** 2)
+        k = np.clip(np.argmin(res, axis=1), 1, len(_DELTA_GRID) - 2)
+        r = np.arange(len(k))
+        lo, mid, hi = res[r, k - 1], res[r, k], res[r, k + 1]
+        curv = lo - 2.0 * mid + hi
+        shift = np.where(curv > 0, 0.5 * (lo - hi) / np.where(curv > 0, curv, 1.0), 0.0)
+        f = k + np.clip(shift, -1.0, 1.0)
+        g = np.interp(f, np.arange(len(_DELTA_GRID)), self._profile_point)
+        p[ok] = p0 + dp * g
+        return p
 
     # ------------------------------------------------------------------ recovery
     def _solver(self, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -323,15 +442,7 @@ class WallCriterion:
         if pol is None:
             return None
         eff = pol.copy()
-        pp = np.asarray(pore_pressure, dtype=float)
-        p = self._pt_pressure @ pp + self._pt_wall * wall_pressure
-        if self.permeable_wall:
-            # the linear profile from the wall value holds no more fluid than the clusters
-            # between the wall and the point: a pressure that falls away from the wall is
-            # below their largest there (without this cap a tight rock, whose leak-off
-            # front is far thinner than a cluster, would see the well pressure at once)
-            p = np.minimum(p, pp[self._pt_path].max(axis=1))
-        eff[:, :2] -= p[:, None]
+        eff[:, :2] -= self.point_pore_pressure(pore_pressure, wall_pressure)[:, None]
         cl = self.clusters
         own = self._owner
         # polar components have the principal values of the Cartesian ones
@@ -353,23 +464,21 @@ def _locate(mesh: Mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     tree = cKDTree(mesh.centroids)
     _, cand = tree.query(points, k=min(12, mesh.n_triangles))
     cand = np.atleast_2d(cand)
-    X = mesh.nodes
-    owner = np.empty(len(points), dtype=np.int64)
-    weights = np.empty((len(points), 3))
-    for i, pt in enumerate(points):
-        best, best_w = None, None
-        for t in cand[i]:
-            a, b, c = X[tris[t]]
-            T = np.array([[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]])
-            l1, l2 = np.linalg.solve(T, pt - a)
-            w = np.array([1.0 - l1 - l2, l1, l2])
-            if w.min() >= -1e-12:
-                best, best_w = t, w
-                break
-            if best is None:
-                best, best_w = t, w
-        w = np.clip(best_w, 0.0, None)
-        owner[i], weights[i] = best, w / w.sum()
+    # barycentric coordinates in every candidate (nearest centroids first): the first
+    # candidate holding the point, else the nearest one
+    V = mesh.nodes[tris[cand]]                                   # (p, k, 3, 2)
+    e1, e2 = V[:, :, 1] - V[:, :, 0], V[:, :, 2] - V[:, :, 0]
+    d = np.asarray(points, dtype=float)[:, None, :] - V[:, :, 0]
+    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
+    l1 = (d[..., 0] * e2[..., 1] - d[..., 1] * e2[..., 0]) / det
+    l2 = (e1[..., 0] * d[..., 1] - e1[..., 1] * d[..., 0]) / det
+    w = np.stack([1.0 - l1 - l2, l1, l2], -1)                    # (p, k, 3)
+    inside = w.min(axis=-1) >= -1e-12
+    pick = np.where(inside.any(axis=1), np.argmax(inside, axis=1), 0)
+    rows = np.arange(len(points))
+    owner = cand[rows, pick].astype(np.int64)
+    weights = np.clip(w[rows, pick], 0.0, None)
+    weights /= weights.sum(axis=1, keepdims=True)
     return owner, weights
 
 
