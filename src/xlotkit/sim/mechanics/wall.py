@@ -46,18 +46,20 @@ unconstrained fit by 2.7 MPa (docs/mechanics.md). Clusters that are failed, pres
 interfaces or touch a crack are left out of the fit (their stress is not the intact
 field's).
 
-Pore pressure at the points: the cluster pressures averaged (by area) onto the nodes and
-interpolated linearly in the triangle holding the point; with ``permeable_wall`` the nodes
-on the wall carry the well pressure (the fluid touches the rock there, as the flow model's
-wall flux assumes), capped by the largest pressure of the clusters between the wall and the
-point (a tight rock's leak-off front is far thinner than a cluster: without the cap the
-point would see the well pressure at once); otherwise the wall clusters' own (an
-impermeable rock keeps ``p0``).
-The leak-off front is steep on the scale of ``L`` when the rock is permeable: measured on
-the standard scene at 31.1 MPa in the hole (1D radial diffusion as the reference, 26.99 MPa
-at ``L/2``), this estimate is 25.1 / 25.8 / 26.4 MPa on 12 / 24 / 48 wall segments (the
-clusters' own pressures interpolated without the wall value: 22.7 / 25.3 / 25.1 MPa): the
-flow cells must resolve ``L`` for the point's pore pressure to converge (docs/mechanics.md).
+Pore pressure at the points: with a permeable wall and the in-situ pore pressure ``p0``
+(``far_pressure``), the leak-off profile along the point's ray, ``p0 + (p_w - p0)
+erfc(x / delta)``, with the ``delta`` whose cluster averages best match the clusters the
+ray crosses out to ``L`` from the wall (:meth:`WallCriterion.point_pore_pressure`). The
+clusters' pressures are cell averages; a wall cluster larger than the leak-off front
+holds less than the rock at ``L/2`` does, and the former estimate (the cluster pressures
+averaged onto the nodes, interpolated linearly from the wall value and capped by the
+largest pressure of the clusters between the wall and the point, the cap keeping a tight
+rock from seeing the well pressure at once) read that average on a coarse wall: against 1D
+radial diffusion with the standard scene's history (26.98 MPa at ``L/2``) it gave 23.0 /
+25.5 / 27.0 MPa at its lowest point on 12 / 24 / 48 wall segments, the fit 27.4 / 27.0 /
+27.2 (tests/verification/test_wall_pore_pressure.py). Without ``far_pressure``, or where
+the clusters' pressures are not such a profile (outside ``[p0, p_w]``), the capped
+interpolation is used; an impermeable wall reads the clusters' own pressures.
 
 Compression positive, SI.
 """
@@ -93,12 +95,12 @@ ARC_SAMPLES = 9
 # crossed are found (the pore-pressure cap of WallCriterion.margins)
 _CAP_SAMPLES = 8
 # the leak-off profile's fit (WallCriterion.point_pore_pressure): ray samples out to
-# _RAY_REACH times the point's distance from the wall, sub-triangles per cluster edge for
-# the cluster averages of the profile, and the grid of its length delta (relative to the
+# _RAY_REACH times the point's distance from the wall, azimuths per cluster for the
+# cluster averages of the profile, and the grid of its length delta (relative to the
 # point's distance; 10^(6/240) = 1.06 per step, refined by a parabola)
 _RAY_SAMPLES = 16
 _RAY_REACH = 2.0
-_QUAD_DIVISIONS = 8
+_AZIMUTH_SAMPLES = 32
 _DELTA_GRID = np.logspace(-3.0, 3.0, 241)
 # cluster pressures this far (fraction of p_w - p0) outside [p0, p_w] are not a leak-off
 # profile from the wall (the well pressure fell below the rock's, or the front has met
@@ -266,22 +268,12 @@ class WallCriterion:
         self._ray_weights = sp.csr_matrix(
             (np.ones(inv.size), (np.repeat(np.arange(len(ang)), _RAY_SAMPLES), inv.ravel())),
             shape=(len(ang), len(uniq)))
-        # cluster averages of erfc(x / delta), x the distance from the wall: equal-area
-        # sub-triangles of each cluster (their centroids)
-        n = _QUAD_DIVISIONS
-        bary = []
-        for i in range(n):
-            for j in range(n - i):
-                bary.append(((i + 1 / 3) / n, (j + 1 / 3) / n))          # upright
-                if i + j < n - 1:
-                    bary.append(((i + 2 / 3) / n, (j + 2 / 3) / n))      # inverted
-        bary = np.array(bary)
-        lam = np.column_stack([1.0 - bary.sum(axis=1), bary])             # (q, 3)
-        X = mesh.nodes[mesh.triangles[uniq]]                               # (u, 3, 2)
-        q = np.einsum("qk,ukd->uqd", lam, X) - c0
-        x = np.maximum(np.hypot(q[..., 0], q[..., 1]) - a, 0.0)           # (u, q)
+        # cluster averages of erfc(x / delta), x = r - a the distance from the wall (0 for
+        # the sliver of a wall cluster inside the circle): exact along each radial line
+        # through the cluster (_radial_erfc_integral), midpoint rule over its azimuths, so a
+        # front far thinner than the cluster is resolved (the tight rocks)
         delta = s * _DELTA_GRID
-        self._profile_mean = erfc(x[:, :, None] / delta[None, None, :]).mean(axis=1)
+        self._profile_mean = _erfc_cluster_means(mesh, uniq, c0, a, delta)
         self._profile_point = erfc(s / delta)                             # (g,)
 
     def point_pore_pressure(self, pore_pressure: np.ndarray, wall_pressure: float
@@ -455,6 +447,55 @@ class WallCriterion:
         np.maximum.at(ms, own, ms_pt)
         ok = ~np.asarray(exclude)[cl]
         return cl[ok], mt[ok], ms[ok]
+
+
+def _radial_erfc_integral(r0: np.ndarray, r1: np.ndarray, a: float, delta: np.ndarray
+                          ) -> np.ndarray:
+    """``int_{r0}^{r1} erfc((r - a) / delta) r dr`` with ``erfc`` taken as 1 for ``r < a``
+    (closed form; ``r0``, ``r1`` broadcast against ``delta``)."""
+    def prim(u):
+        # antiderivative of erfc(u/d) (u + a) in u >= 0
+        e = np.exp(-(u / delta) ** 2)
+        c = erfc(u / delta)
+        return (0.5 * u * u * c - delta / (2 * math.sqrt(math.pi)) * u * e
+                + 0.25 * delta ** 2 * (1.0 - c)
+                + a * (u * c - delta / math.sqrt(math.pi) * e))
+    lo = np.maximum(r0, a)
+    inside = 0.5 * (np.clip(r1, None, a) ** 2 - np.clip(r0, None, a) ** 2)
+    inside = np.maximum(inside, 0.0)
+    return inside + np.where(r1 > lo, prim(np.maximum(r1 - a, 0.0)) - prim(lo - a), 0.0)
+
+
+def _erfc_cluster_means(mesh: Mesh, cells: np.ndarray, c0: np.ndarray, a: float,
+                        delta: np.ndarray) -> np.ndarray:
+    """Average of ``erfc((r - a) / delta)`` over each of ``cells`` (k,), for every
+    ``delta`` (g,): (k, g). Each radial line through a cluster (the hole's centre lies
+    outside it) crosses it once, ``[r_in, r_out]``; the radial integral is exact, the
+    azimuthal one the midpoint rule over :data:`_AZIMUTH_SAMPLES` azimuths."""
+    X = mesh.nodes[mesh.triangles[cells]] - c0                          # (k, 3, 2)
+    th = np.arctan2(X[..., 1], X[..., 0])
+    mid = np.arctan2(X[..., 1].mean(axis=1), X[..., 0].mean(axis=1))
+    th = mid[:, None] + np.angle(np.exp(1j * (th - mid[:, None])))
+    lo, hi = th.min(axis=1), th.max(axis=1)
+    f = (np.arange(_AZIMUTH_SAMPLES) + 0.5) / _AZIMUTH_SAMPLES
+    phi = lo[:, None] + (hi - lo)[:, None] * f[None, :]                 # (k, s)
+    d = np.stack([np.cos(phi), np.sin(phi)], -1)                        # (k, s, 2)
+    # ray c0 + t d against each edge P + v (Q - P), v in [0, 1]
+    hits = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        P, E = X[:, i], X[:, j] - X[:, i]                               # (k, 2)
+        den = d[..., 0] * E[:, None, 1] - d[..., 1] * E[:, None, 0]
+        safe = np.where(np.abs(den) > 1e-300, den, 1.0)
+        t = (P[:, None, 0] * E[:, None, 1] - P[:, None, 1] * E[:, None, 0]) / safe
+        v = (P[:, None, 0] * d[..., 1] - P[:, None, 1] * d[..., 0]) / safe
+        ok = (np.abs(den) > 1e-300) & (v >= -1e-9) & (v <= 1 + 1e-9) & (t > 0)
+        hits.append(np.where(ok, t, np.nan))
+    hits = np.stack(hits, -1)
+    r_in = np.nanmin(hits, axis=-1)[..., None]                          # (k, s, 1)
+    r_out = np.nanmax(hits, axis=-1)[..., None]
+    integral = _radial_erfc_integral(r_in, r_out, a, delta[None, None, :])
+    area = np.asarray(mesh.areas)[cells]
+    return integral.mean(axis=1) * (hi - lo)[:, None] / area[:, None]
 
 
 def _locate(mesh: Mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
