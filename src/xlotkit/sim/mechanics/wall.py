@@ -60,6 +60,9 @@ radial diffusion with the standard scene's history (26.98 MPa at ``L/2``) it gav
 27.2 (tests/verification/test_wall_pore_pressure.py). Without ``far_pressure``, or where
 the clusters' pressures are not such a profile (outside ``[p0, p_w]``), the capped
 interpolation is used; an impermeable wall reads the clusters' own pressures.
+:class:`~xlotkit.sim.mechanics.solver.MechanicsModel` does not pass ``far_pressure`` yet:
+the hard cases of tests/stability (``L/2`` = 2 mm, the well started at 30 MPa) would
+initiate at once and off axis (docs/mechanics.md).
 
 Compression positive, SI.
 """
