@@ -508,21 +508,23 @@ def _locate(mesh: Mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     tree = cKDTree(mesh.centroids)
     _, cand = tree.query(points, k=min(12, mesh.n_triangles))
     cand = np.atleast_2d(cand)
-    # barycentric coordinates in every candidate (nearest centroids first): the first
-    # candidate holding the point, else the nearest one
-    V = mesh.nodes[tris[cand]]                                   # (p, k, 3, 2)
-    e1, e2 = V[:, :, 1] - V[:, :, 0], V[:, :, 2] - V[:, :, 0]
-    d = np.asarray(points, dtype=float)[:, None, :] - V[:, :, 0]
-    det = e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]
-    l1 = (d[..., 0] * e2[..., 1] - d[..., 1] * e2[..., 0]) / det
-    l2 = (e1[..., 0] * d[..., 1] - e1[..., 1] * d[..., 0]) / det
-    w = np.stack([1.0 - l1 - l2, l1, l2], -1)                    # (p, k, 3)
-    inside = w.min(axis=-1) >= -1e-12
-    pick = np.where(inside.any(axis=1), np.argmax(inside, axis=1), 0)
-    rows = np.arange(len(points))
-    owner = cand[rows, pick].astype(np.int64)
-    weights = np.clip(w[rows, pick], 0.0, None)
-    weights /= weights.sum(axis=1, keepdims=True)
+    X = mesh.nodes
+    owner = np.empty(len(points), dtype=np.int64)
+    weights = np.empty((len(points), 3))
+    for i, pt in enumerate(points):
+        best, best_w = None, None
+        for t in cand[i]:
+            a, b, c = X[tris[t]]
+            T = np.array([[b[0] - a[0], c[0] - a[0]], [b[1] - a[1], c[1] - a[1]]])
+            l1, l2 = np.linalg.solve(T, pt - a)
+            w = np.array([1.0 - l1 - l2, l1, l2])
+            if w.min() >= -1e-12:
+                best, best_w = t, w
+                break
+            if best is None:
+                best, best_w = t, w
+        w = np.clip(best_w, 0.0, None)
+        owner[i], weights[i] = best, w / w.sum()
     return owner, weights
 
 
