@@ -19,10 +19,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
-
-from xlotkit import formulas
 from scipy.special import erfc
 
+from xlotkit import formulas
 from xlotkit.sim.mechanics.wall import WallCriterion, _erfc_cluster_means
 from xlotkit.sim.mesh import borehole_mesh
 
@@ -61,7 +60,7 @@ def _radial_reference(t_end: float = 181.0, dt: float = 0.05, n: int = 2000,
     M[n - 1, n - 1] = 1.0
     solve = spl.factorized(M.tocsc())
     p = np.full(n, P0)
-    for k in range(int(round(t_end / dt))):
+    for k in range(round(t_end / dt)):
         b = vol / dt * p
         b[0] = _wall_history((k + 1) * dt)
         b[-1] = P0
