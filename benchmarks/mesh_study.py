@@ -17,8 +17,9 @@ truth: first cluster failure, first drop of the well pressure while pumping), th
 cycle-1 FBP and FPP (a pick not found: its reason below the table), and the run's wall and
 CPU time. ``results.json`` and ``table.md`` go into a fresh ``--out`` folder; with
 ``--write-docs`` the table goes into docs/mechanics.md between the ``MESH-STUDY`` markers.
-Runs one at a time, the whole schedule of the base scene (the standard two-cycle XLOT: 95 s
-on 12 wall segments, about 8 minutes on 48 on the shared machine).
+Runs one at a time, the whole schedule of the base scene (the standard two-cycle XLOT: 42,
+213 and 173 s of CPU on 12, 24 and 48 wall segments; 5 to 21 minutes of wall time each on
+the shared machine).
 """
 
 from __future__ import annotations
