@@ -1,20 +1,25 @@
 """Breakdown against the wall's resolution: the standard scene on 12, 24 and 48 wall segments.
 
     .venv/bin/python benchmarks/mesh_study.py [--base SCENE.toml] [--segments 12 24 48]
-                                              [--path strip free] [--out DIR]
+                                              [--path free strip] [--out DIR]
                                               [--reuse RESULTS.json] [--write-docs]
 
 Runs the base scene (default ``examples/scene_2d_standard.toml``) with the wall element
 size set to ``2 pi a / n`` for each ``n`` of ``--segments`` (nothing else changed: the
-band's and the far mesh's element sizes are the scene's), on the crack strip as the scene
-has it (``strip``) and, with ``--path free``, on the free path (``mesh.band_strip = false``,
-``effects.fracture_plane = false``). Each run's synthetic log (gauge noise off) goes through
-the reader and the picks as a field log; the table gives the triangles, the model's own
-initiation and breakdown pressures (engine truth: first cluster failure, first drop of the
-well pressure while pumping), the picked cycle-1 FBP and FPP, and the run's wall and CPU
-time. ``results.json`` and ``table.md`` go into a fresh ``--out`` folder; with
+band's and the far mesh's element sizes are the scene's), on the path ``--path`` sets
+explicitly, whatever the base scene has (:data:`PATHS`): ``free`` (the default, and the
+scenes' default since issue 17: every failed cluster on its own crack plane,
+``mesh.band_strip = false``, ``effects.fracture_plane = false``, ``rock.crack_plane =
+"stress"``) or ``strip`` (the crack strip with the band's preset plane). Each run's
+synthetic log (gauge noise off) goes through the reader and the picks as a field log; the
+table gives the triangles, the model's own initiation and breakdown pressures (engine
+truth: first cluster failure, first drop of the well pressure while pumping), the picked
+cycle-1 FBP and FPP (a pick not found: its reason below the table), and the run's wall and
+CPU time. ``results.json`` and ``table.md`` go into a fresh ``--out`` folder; with
 ``--write-docs`` the table goes into docs/mechanics.md between the ``MESH-STUDY`` markers.
-Runs one at a time (each is a whole two-cycle XLOT; 48 segments take minutes).
+Runs one at a time, the whole schedule of the base scene (the standard two-cycle XLOT: 42,
+213 and 173 s of CPU on 12, 24 and 48 wall segments; 5 to 21 minutes of wall time each on
+the shared machine).
 """
 
 from __future__ import annotations
@@ -38,8 +43,19 @@ DOC = ROOT / "docs" / "mechanics.md"
 START, END = "<!-- MESH-STUDY:START -->", "<!-- MESH-STUDY:END -->"
 
 
+#: The crack's path, set explicitly whatever the base scene has: ``free`` = every failed
+#: cluster on its own crack plane, no strip, no preset plane (the scenes' default);
+#: ``strip`` = the crack strip along the band axis with the band's preset plane (the
+#: scenes' path before issue 17).
+PATHS: dict[str, dict] = {
+    "free": {"mesh": {"band_strip": False}, "effects": {"fracture_plane": False},
+             "rock": {"crack_plane": "stress"}},
+    "strip": {"mesh": {"band_strip": True}, "effects": {"fracture_plane": True}},
+}
+
+
 def variant(base: dict, segments: int, path: str, refine: str = "wall") -> dict:
-    """The base scene with ``segments`` wall elements, on the strip or the free path.
+    """The base scene with ``segments`` wall elements, on the free or the strip path.
 
     ``refine="all"`` scales the band's element size with the wall's (the base scene's band
     element size belongs to its own wall segments), as the mesh rows of
@@ -53,10 +69,7 @@ def variant(base: dict, segments: int, path: str, refine: str = "wall") -> dict:
     if refine == "all" and sc.mesh.band_element_size is not None:
         f = h_wall / (sc.mesh.wall_element_size or 2.0 * math.pi * a / 64)
         over["mesh"]["band_element_size"] = sc.mesh.band_element_size * f
-    if path == "free":
-        over["mesh"]["band_strip"] = False
-        over["effects"] = {"fracture_plane": False}
-    return merge(base, over)
+    return merge(merge(base, PATHS[path]), over)
 
 
 def run_one(data: dict, work: Path) -> dict:
@@ -74,13 +87,14 @@ def run_one(data: dict, work: Path) -> dict:
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     out = {"triangles": n_tri, "wall_s": wall, "cpu_s": cpu, "status": res.status,
            "message": res.message, "initiation": res.truth.get("initiation_pressure"),
-           "fbp_truth": res.truth.get("fbp"), "picks": {}}
+           "fbp_truth": res.truth.get("fbp"), "picks": {}, "missed": {}}
     interp = interpret_record(read_log(res.paths["log"]))
     cyc = interp.picks.test_cycles
-    if cyc:
-        for name in ("FBP", "FPP"):
-            p = cyc[0].get(name)
-            out["picks"][name] = p.value if p is not None and p.found else None
+    for name in ("FBP", "FPP"):
+        p = cyc[0].get(name) if cyc else None
+        out["picks"][name] = p.value if p is not None and p.found else None
+        if p is None or not p.found:
+            out["missed"][name] = p.message if p is not None else "no test cycle"
     return out
 
 
@@ -106,6 +120,8 @@ def table(results: dict) -> str:
                      f"{_bar(r['picks'].get('FPP'))} | {_sec(r['wall_s'])} | {_sec(r['cpu_s'])} |")
         if r["status"] != "ok":
             notes.append(f"{key}: {r['status']}: {r['message'][:200]}")
+        for q, why in r.get("missed", {}).items():
+            notes.append(f"{key}: no {q} pick: {why}")
     if notes:
         lines.append("")
         lines.extend(f"* {n}" for n in notes)
@@ -124,7 +140,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--base", default=str(ROOT / "examples" / "scene_2d_standard.toml"))
     ap.add_argument("--segments", nargs="*", type=int, default=[12, 24, 48])
-    ap.add_argument("--path", nargs="*", default=["strip"], choices=["strip", "free"])
+    ap.add_argument("--path", nargs="*", default=["free"], choices=sorted(PATHS))
     ap.add_argument("--refine", nargs="*", default=["wall"], choices=["wall", "all"],
                     help="wall: only the wall elements; all: the band's elements with them")
     ap.add_argument("--out", default=str(ROOT / "results" / "mesh-study"))
@@ -150,7 +166,7 @@ def main() -> None:
                 except Exception as exc:  # noqa: BLE001 -- a failing run is a result too
                     r = {"triangles": None, "wall_s": math.nan, "cpu_s": math.nan,
                          "status": "failed", "message": f"{type(exc).__name__}: {exc}",
-                         "initiation": None, "fbp_truth": None, "picks": {}}
+                         "initiation": None, "fbp_truth": None, "picks": {}, "missed": {}}
             results[key] = r
             print(f"  {r['status']} {r['triangles']} triangles in {_sec(r['wall_s'])} s: "
                   f"initiation {_bar(r['initiation'])}, breakdown {_bar(r['fbp_truth'])}, "

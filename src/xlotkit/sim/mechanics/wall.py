@@ -46,18 +46,23 @@ unconstrained fit by 2.7 MPa (docs/mechanics.md). Clusters that are failed, pres
 interfaces or touch a crack are left out of the fit (their stress is not the intact
 field's).
 
-Pore pressure at the points: the cluster pressures averaged (by area) onto the nodes and
-interpolated linearly in the triangle holding the point; with ``permeable_wall`` the nodes
-on the wall carry the well pressure (the fluid touches the rock there, as the flow model's
-wall flux assumes), capped by the largest pressure of the clusters between the wall and the
-point (a tight rock's leak-off front is far thinner than a cluster: without the cap the
-point would see the well pressure at once); otherwise the wall clusters' own (an
-impermeable rock keeps ``p0``).
-The leak-off front is steep on the scale of ``L`` when the rock is permeable: measured on
-the standard scene at 31.1 MPa in the hole (1D radial diffusion as the reference, 26.99 MPa
-at ``L/2``), this estimate is 25.1 / 25.8 / 26.4 MPa on 12 / 24 / 48 wall segments (the
-clusters' own pressures interpolated without the wall value: 22.7 / 25.3 / 25.1 MPa): the
-flow cells must resolve ``L`` for the point's pore pressure to converge (docs/mechanics.md).
+Pore pressure at the points: with a permeable wall and the in-situ pore pressure ``p0``
+(``far_pressure``), the leak-off profile along the point's ray, ``p0 + (p_w - p0)
+erfc(x / delta)``, with the ``delta`` whose cluster averages best match the clusters the
+ray crosses out to ``L`` from the wall (:meth:`WallCriterion.point_pore_pressure`). The
+clusters' pressures are cell averages; a wall cluster larger than the leak-off front
+holds less than the rock at ``L/2`` does, and the former estimate (the cluster pressures
+averaged onto the nodes, interpolated linearly from the wall value and capped by the
+largest pressure of the clusters between the wall and the point, the cap keeping a tight
+rock from seeing the well pressure at once) read that average on a coarse wall: against 1D
+radial diffusion with the standard scene's history (26.98 MPa at ``L/2``) it gave 23.0 /
+25.5 / 27.0 MPa at its lowest point on 12 / 24 / 48 wall segments, the fit 27.4 / 27.0 /
+27.2 (tests/verification/test_wall_pore_pressure.py). Without ``far_pressure``, or where
+the clusters' pressures are not such a profile (outside ``[p0, p_w]``), the capped
+interpolation is used; an impermeable wall reads the clusters' own pressures.
+:class:`~xlotkit.sim.mechanics.solver.MechanicsModel` does not pass ``far_pressure`` yet:
+the hard cases of tests/stability (``L/2`` = 2 mm, the well started at 30 MPa) would
+initiate at once and off axis (docs/mechanics.md).
 
 Compression positive, SI.
 """
@@ -69,6 +74,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
+from scipy.special import erfc
 
 from xlotkit.errors import InputError
 from xlotkit.sim.mechanics.failure import mohr_coulomb_margin, tensile_margin
@@ -91,6 +97,18 @@ ARC_SAMPLES = 9
 # points on the radial segment from the wall to a criterion point at which the clusters
 # crossed are found (the pore-pressure cap of WallCriterion.margins)
 _CAP_SAMPLES = 8
+# the leak-off profile's fit (WallCriterion.point_pore_pressure): ray samples out to
+# _RAY_REACH times the point's distance from the wall, azimuths per cluster for the
+# cluster averages of the profile, and the grid of its length delta (relative to the
+# point's distance; 10^(6/240) = 1.06 per step, refined by a parabola)
+_RAY_SAMPLES = 16
+_RAY_REACH = 2.0
+_AZIMUTH_SAMPLES = 32
+_DELTA_GRID = np.logspace(-3.0, 3.0, 241)
+# cluster pressures this far (fraction of p_w - p0) outside [p0, p_w] are not a leak-off
+# profile from the wall (the well pressure fell below the rock's, or the front has met
+# another source): the point keeps the interpolation
+_PROFILE_TOL = 0.02
 # a fit whose area-weighted rms residual exceeds this fraction of the stress scale is not
 # an intact field around a hole (a crack within the region): the clusters keep the
 # cluster-average criterion for that check
@@ -167,6 +185,10 @@ class WallCriterion:
     permeable_wall : bool
         The well's fluid enters the rock at the wall: the wall nodes carry the well
         pressure in the pore-pressure interpolation.
+    far_pressure : float, optional
+        The rock's in-situ pore pressure ``p0`` [Pa], where the leak-off profile ends;
+        with ``permeable_wall`` the points' pore pressure is that profile's, fitted to
+        the clusters on their rays (:meth:`point_pore_pressure`).
 
     Attributes
     ----------
@@ -176,7 +198,7 @@ class WallCriterion:
 
     def __init__(self, mesh: Mesh, material_length: float, fit_radius: float = FIT_RADIUS,
                  n_modes: int = FIT_MODES, arc_samples: int = ARC_SAMPLES,
-                 permeable_wall: bool = False) -> None:
+                 permeable_wall: bool = False, far_pressure: float | None = None) -> None:
         if mesh.hole_center is None or mesh.hole_radius is None or len(mesh.hole_nodes) == 0:
             raise InputError("the critical-distance wall criterion needs a mesh with a hole",
                              key="mesh")
@@ -228,6 +250,98 @@ class WallCriterion:
         seg = c0 + (a + np.outer(frac, np.full(len(ang), 0.5 * self.length)).T)[..., None] \
             * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
         self._pt_path = _locate(mesh, seg.reshape(-1, 2))[0].reshape(len(ang), -1)
+        # the leak-off profile along each point's ray (point_pore_pressure)
+        self.far_pressure = None if far_pressure is None else float(far_pressure)
+        if self.permeable_wall and self.far_pressure is not None:
+            self._setup_profile(mesh, ang)
+
+    # ------------------------------------------------------------------ pore pressure
+    def _setup_profile(self, mesh: Mesh, ang: np.ndarray) -> None:
+        """Geometry of the leak-off profile fit: the clusters on each point's ray and the
+        cluster averages of ``erfc(x / delta)`` on the grid of ``delta``."""
+        a, c0 = self.radius, self.center
+        s = 0.5 * self.length
+        frac = (np.arange(_RAY_SAMPLES) + 0.5) / _RAY_SAMPLES
+        dist = a + _RAY_REACH * s * frac                                    # (k,)
+        pts = c0 + dist[None, :, None] * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
+        cells = _locate(mesh, pts.reshape(-1, 2))[0].reshape(len(ang), -1)
+        uniq, inv = np.unique(cells, return_inverse=True)
+        self._ray_cells = uniq
+        # samples per (point, cluster): the least-squares weights of the clusters' targets
+        self._ray_weights = sp.csr_matrix(
+            (np.ones(inv.size), (np.repeat(np.arange(len(ang)), _RAY_SAMPLES), inv.ravel())),
+            shape=(len(ang), len(uniq)))
+        # cluster averages of erfc(x / delta), x = r - a the distance from the wall (0 for
+        # the sliver of a wall cluster inside the circle): exact along each radial line
+        # through the cluster (_radial_erfc_integral), midpoint rule over its azimuths, so a
+        # front far thinner than the cluster is resolved (the tight rocks)
+        delta = s * _DELTA_GRID
+        self._profile_mean = _erfc_cluster_means(mesh, uniq, c0, a, delta)
+        self._profile_point = erfc(s / delta)                             # (g,)
+
+    def point_pore_pressure(self, pore_pressure: np.ndarray, wall_pressure: float
+                            ) -> np.ndarray:
+        """Pore pressure [Pa] at the criterion's points (``L/2`` from the wall).
+
+        With a permeable wall and the far-field pore pressure ``p0`` (``far_pressure``),
+        the leak-off profile along each point's ray is taken as the diffusion profile
+        from a wall held at ``p_w``, ``p0 + (p_w - p0) erfc(x / delta)``, with the one
+        length ``delta`` whose cluster averages best match the pressures of the clusters
+        the ray crosses out to ``2 L/2`` (least squares over the ray's samples). The
+        clusters' pressures are cell averages of the flow: a wall cluster larger than the
+        leak-off front holds a lower average than the rock at ``L/2`` has, and reading it
+        (or interpolating linearly from the wall value, capped by it) made the point's
+        pressure, and with it the initiation pressure, follow the wall's mesh (measured,
+        docs/mechanics.md). Points whose clusters' pressures lie outside ``[p0, p_w]``
+        (the well below the rock, a second source) keep the interpolation below.
+
+        Otherwise: the cluster pressures averaged by area onto the nodes, interpolated
+        linearly (the wall nodes at ``p_w`` when the wall is permeable), capped by the
+        largest pressure of the clusters between the wall and the point.
+
+        Parameters
+        ----------
+        pore_pressure : ndarray (n_c,)
+            Cluster pressures [Pa].
+        wall_pressure : float
+            [Pa].
+
+        Returns
+        -------
+        ndarray (n_points,)
+        """
+        pp = np.asarray(pore_pressure, dtype=float)
+        p = self._pt_pressure @ pp + self._pt_wall * wall_pressure
+        if not self.permeable_wall:
+            return p
+        # the linear profile from the wall value holds no more fluid than the clusters
+        # between the wall and the point: a pressure that falls away from the wall is
+        # below their largest there (without this cap a tight rock, whose leak-off
+        # front is far thinner than a cluster, would see the well pressure at once)
+        p = np.minimum(p, pp[self._pt_path].max(axis=1))
+        if self.far_pressure is None:
+            return p
+        p0 = self.far_pressure
+        dp = wall_pressure - p0
+        if abs(dp) <= 1e-6 * max(abs(wall_pressure), 1.0):
+            return p
+        m = (pp[self._ray_cells] - p0) / dp                                # (u,)
+        bad = (m < -_PROFILE_TOL) | (m > 1.0 + _PROFILE_TOL)
+        ok = (self._ray_weights @ bad.astype(float)) == 0.0
+        if not ok.any():
+            return p
+        # per point: sum over its ray's samples of (cluster average of the profile -
+        # cluster's own value)^2, on the grid of delta
+        res = self._ray_weights[ok] @ ((self._profile_mean - m[:, None]) ** 2)
+        k = np.clip(np.argmin(res, axis=1), 1, len(_DELTA_GRID) - 2)
+        r = np.arange(len(k))
+        lo, mid, hi = res[r, k - 1], res[r, k], res[r, k + 1]
+        curv = lo - 2.0 * mid + hi
+        shift = np.where(curv > 0, 0.5 * (lo - hi) / np.where(curv > 0, curv, 1.0), 0.0)
+        f = k + np.clip(shift, -1.0, 1.0)
+        g = np.interp(f, np.arange(len(_DELTA_GRID)), self._profile_point)
+        p[ok] = p0 + dp * g
+        return p
 
     # ------------------------------------------------------------------ recovery
     def _solver(self, keep: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -323,15 +437,7 @@ class WallCriterion:
         if pol is None:
             return None
         eff = pol.copy()
-        pp = np.asarray(pore_pressure, dtype=float)
-        p = self._pt_pressure @ pp + self._pt_wall * wall_pressure
-        if self.permeable_wall:
-            # the linear profile from the wall value holds no more fluid than the clusters
-            # between the wall and the point: a pressure that falls away from the wall is
-            # below their largest there (without this cap a tight rock, whose leak-off
-            # front is far thinner than a cluster, would see the well pressure at once)
-            p = np.minimum(p, pp[self._pt_path].max(axis=1))
-        eff[:, :2] -= p[:, None]
+        eff[:, :2] -= self.point_pore_pressure(pore_pressure, wall_pressure)[:, None]
         cl = self.clusters
         own = self._owner
         # polar components have the principal values of the Cartesian ones
@@ -344,6 +450,55 @@ class WallCriterion:
         np.maximum.at(ms, own, ms_pt)
         ok = ~np.asarray(exclude)[cl]
         return cl[ok], mt[ok], ms[ok]
+
+
+def _radial_erfc_integral(r0: np.ndarray, r1: np.ndarray, a: float, delta: np.ndarray
+                          ) -> np.ndarray:
+    """``int_{r0}^{r1} erfc((r - a) / delta) r dr`` with ``erfc`` taken as 1 for ``r < a``
+    (closed form; ``r0``, ``r1`` broadcast against ``delta``)."""
+    def prim(u):
+        # antiderivative of erfc(u/d) (u + a) in u >= 0
+        e = np.exp(-(u / delta) ** 2)
+        c = erfc(u / delta)
+        return (0.5 * u * u * c - delta / (2 * math.sqrt(math.pi)) * u * e
+                + 0.25 * delta ** 2 * (1.0 - c)
+                + a * (u * c - delta / math.sqrt(math.pi) * e))
+    lo = np.maximum(r0, a)
+    inside = 0.5 * (np.clip(r1, None, a) ** 2 - np.clip(r0, None, a) ** 2)
+    inside = np.maximum(inside, 0.0)
+    return inside + np.where(r1 > lo, prim(np.maximum(r1 - a, 0.0)) - prim(lo - a), 0.0)
+
+
+def _erfc_cluster_means(mesh: Mesh, cells: np.ndarray, c0: np.ndarray, a: float,
+                        delta: np.ndarray) -> np.ndarray:
+    """Average of ``erfc((r - a) / delta)`` over each of ``cells`` (k,), for every
+    ``delta`` (g,): (k, g). Each radial line through a cluster (the hole's centre lies
+    outside it) crosses it once, ``[r_in, r_out]``; the radial integral is exact, the
+    azimuthal one the midpoint rule over :data:`_AZIMUTH_SAMPLES` azimuths."""
+    X = mesh.nodes[mesh.triangles[cells]] - c0                          # (k, 3, 2)
+    th = np.arctan2(X[..., 1], X[..., 0])
+    mid = np.arctan2(X[..., 1].mean(axis=1), X[..., 0].mean(axis=1))
+    th = mid[:, None] + np.angle(np.exp(1j * (th - mid[:, None])))
+    lo, hi = th.min(axis=1), th.max(axis=1)
+    f = (np.arange(_AZIMUTH_SAMPLES) + 0.5) / _AZIMUTH_SAMPLES
+    phi = lo[:, None] + (hi - lo)[:, None] * f[None, :]                 # (k, s)
+    d = np.stack([np.cos(phi), np.sin(phi)], -1)                        # (k, s, 2)
+    # ray c0 + t d against each edge P + v (Q - P), v in [0, 1]
+    hits = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        P, E = X[:, i], X[:, j] - X[:, i]                               # (k, 2)
+        den = d[..., 0] * E[:, None, 1] - d[..., 1] * E[:, None, 0]
+        safe = np.where(np.abs(den) > 1e-300, den, 1.0)
+        t = (P[:, None, 0] * E[:, None, 1] - P[:, None, 1] * E[:, None, 0]) / safe
+        v = (P[:, None, 0] * d[..., 1] - P[:, None, 1] * d[..., 0]) / safe
+        ok = (np.abs(den) > 1e-300) & (v >= -1e-9) & (v <= 1 + 1e-9) & (t > 0)
+        hits.append(np.where(ok, t, np.nan))
+    hits = np.stack(hits, -1)
+    r_in = np.nanmin(hits, axis=-1)[..., None]                          # (k, s, 1)
+    r_out = np.nanmax(hits, axis=-1)[..., None]
+    integral = _radial_erfc_integral(r_in, r_out, a, delta[None, None, :])
+    area = np.asarray(mesh.areas)[cells]
+    return integral.mean(axis=1) * (hi - lo)[:, None] / area[:, None]
 
 
 def _locate(mesh: Mesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
