@@ -4,7 +4,8 @@ cycles (docs/field/segmentation.md).
 Every threshold is a fraction or multiple of one of the record's own scales
 (:class:`~xlotkit.interpret.phases.types.RecordScales`): its pressure noise, its pre-test
 level and its pressure span above it, its rate scale, the decline of its own shut-ins and
-the steepness of its own rises; windows are counted in samples.
+the steepness of its own rises; windows are counted in samples of the record's resolution
+(:meth:`SegmentOptions.for_sampling`).
 """
 
 from __future__ import annotations
@@ -224,6 +225,9 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     if n == 0:
         return Segmentation(phases=(), cycles=(), used_rate=False, notes=("empty record",))
     t = record.t
+    if n > 1:
+        # windows in samples of the record's own resolution: a coarse log counts them in time
+        opt = opt.for_sampling(float(np.median(np.diff(t))), float(t[-1] - t[0]))
     p = np.asarray(record.gauge_pressure(), float)
     if np.any(~np.isfinite(p)):
         # gaps in a pressure series: carry the last reading (the segmentation is coarse)
