@@ -275,9 +275,14 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     # ------------------------------------------------------------ p-V linearity
     lo, hi = p0 + 0.15 * gain, p0 + 0.6 * gain
     sel = np.flatnonzero((p[: k + 1] >= lo) & (p[: k + 1] <= hi))
+    if sel.size < 3:
+        # a coarse log puts fewer than 3 samples in that band: the line is read over the
+        # lower three quarters of the rise instead (still below any leak-off bend), through
+        # two samples if that is all the log has there
+        sel = np.flatnonzero((p[: k + 1] >= p0 + 0.05 * gain) & (p[: k + 1] <= p0 + 0.75 * gain))
     slope = None
     dep = None
-    if sel.size >= 3 and np.ptp(x[sel]) > 0:
+    if sel.size >= 2 and np.ptp(x[sel]) > 0:
         slope, icpt = np.polyfit(x[sel], p[sel], 1)
         if slope > 0:
             tol = opt.departure_tolerance * gain

@@ -37,6 +37,8 @@ _SAMPLES = ("smooth_samples", "slope_half", "rate_filter_samples", "gap_samples"
 _WINDOWS = {"smooth_samples": 1, "slope_half": 1, "rate_filter_samples": 1,
             "gap_samples": 1, "min_pump_samples": 2, "min_phase_samples": 2,
             "settle_samples": 2, "min_return_samples": 2}
+#: Windows of running medians, kept odd when scaled.
+_ODD = ("smooth_samples", "rate_filter_samples")
 
 
 @dataclass(frozen=True)
@@ -281,4 +283,9 @@ class SegmentOptions:
             return self
         new = {name: max(floor, int(round(getattr(self, name) * factor)))
                for name, floor in _WINDOWS.items()}
+        for name in _ODD:  # a running median's window stays centred: odd
+            if getattr(self, name) % 2 == 1 and new[name] % 2 == 0:
+                new[name] = new[name] + 1 if getattr(self, name) * factor > new[name] \
+                    else new[name] - 1
+            new[name] = max(new[name], 1)
         return replace(self, **new)
