@@ -17,7 +17,9 @@ step-rate test, stimulation ...).
 * The first test cycle: ``LOP`` and ``FBP`` (the breakdown event; the pick reports "not
   found" when the pressure never fell at an unchanged rate). Later test cycles: ``Pr``
   (reopening). Every test cycle: ``FPP``; a ``step_rate`` cycle also ``FEP``, the
-  fracture-extension pressure (:mod:`~xlotkit.interpret.picks.steprate`).
+  fracture-extension pressure (:mod:`~xlotkit.interpret.picks.steprate`), and no ``LOP`` /
+  ``Pr`` (:data:`NO_DEPARTURE_KINDS`: its pressure bends at every rate step, so a departure
+  from the first line is no leak-off).
 * Fracture closure (``FCP``) in test cycles: every shut-in method of
   :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a pump stop
   followed by a shut-in, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`)
@@ -120,6 +122,7 @@ from xlotkit.record import Record
 __all__ = [
     "FCP_METHODS",
     "METHODS",
+    "NO_DEPARTURE_KINDS",
     "PICK_NAMES",
     "SHUTIN_METHOD_NAMES",
     "Consistency",
@@ -147,6 +150,9 @@ TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
 #: closure picks. Every other kind -- LOT, XLOT, DFIT / mini-frac, step-rate test,
 #: stimulation, and kinds the segmentation adds later -- is a test cycle.
 NON_FRACTURE_KINDS = ("line_test", "casing_test", "other")
+#: Test-cycle kinds whose pressurisation has no leak-off departure to find: a step-rate
+#: test's pressure bends at every rate step (its pick is the FEP), so no LOP / Pr.
+NO_DEPARTURE_KINDS = ("step_rate",)
 
 
 def is_test_cycle(cycle: Cycle) -> bool:
@@ -765,10 +771,16 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
                           notes=(f"{cycle.kind} cycle: no fracture picks, only the ISIP and "
                                  "the stiffness",))
     picks: list[Pick] = []
-    if previous is None:
-        picks += [press("LOP"), press("FBP")]
+    departure = "Pr" if previous is not None else "LOP"
+    if cycle.kind in NO_DEPARTURE_KINDS:
+        # the pressure bends at every rate step: a departure from the first line is the
+        # next step, not leak-off; the stabilised p-q line's break (FEP) is the pick
+        notes.append(f"{cycle.kind} cycle: no {departure} (the pressure bends at every rate "
+                     "step; the fracture-extension pressure FEP is the pick)")
     else:
-        picks.append(press("Pr"))
+        picks.append(press(departure))
+    if previous is None:
+        picks.append(press("FBP"))
     picks.append(press("FPP"))
     if cycle.kind == "step_rate":
         picks.append(press("FEP"))
