@@ -23,6 +23,7 @@ from phase_fixtures import (
 )
 from test_phases import two_cycle_xlot
 
+from xlotkit import Record
 from xlotkit.interpret.phases import SegmentOptions, segment
 from xlotkit.interpret.picks.core import pick_record
 from xlotkit.sim.schedule import Pump, Schedule, ShutIn
@@ -111,3 +112,29 @@ def test_lumped_dfit_with_a_metered_zero_rate_falls_off_shut_in(tmp_path, dt):
     # the lumped fracture closes at sigma_h exactly; the shut-in methods within 5 % as in
     # test_picks_lumped.py
     assert fcp.found and abs(fcp.value / res.truth["sigma_h"] - 1.0) < 0.05
+
+
+@pytest.mark.parametrize("k", FACTORS)
+def test_a_totaliser_counts_pumped_volume_in_the_pump_phases_only(k):
+    # issue 16 audit D5: on a coarse log a shut-in was reported "pumped" the totaliser's step
+    # into the next pump phase's first sample (the volume moved since the sample before)
+    arrays = _arrays("xlot", 0)
+    t, p, q, r = arrays
+    # the totaliser integrates the rate exactly between the 1 s samples [m^3]
+    vol = np.concatenate([[0.0], np.cumsum(q[:-1] * LPM * np.diff(t))])
+    ret = np.concatenate([[0.0], np.cumsum(r[:-1] * LPM * np.diff(t))])
+    s = slice(k // 2, None, k)  # coarse samples that straddle the pump starts and stops
+    rec = to_record(t[s], p[s], q[s], r[s])
+    rec = Record(t=rec.t, pressure=rec.pressure, rate=rec.rate, return_rate=rec.return_rate,
+                 volume=vol[s], return_volume=ret[s])
+    seg = segment(rec)
+    assert [c.kind for c in seg.cycles] == ["xlot", "xlot"]
+    for ph in seg.phases:
+        if ph.kind != "pump":
+            assert ph.pumped_m3 == 0.0, (k, ph.kind, ph.pumped_m3)
+        if ph.kind in ("pump", "shut_in"):  # (the returns trail off into the idle well)
+            assert ph.returned_m3 == 0.0, (k, ph.kind, ph.returned_m3)
+    # the two pump phases pumped what the construction did (0.5 and 0.4 m^3): every step of
+    # the totaliser is in one of them
+    pumped = [ph.pumped_m3 for ph in seg.phases if ph.kind == "pump"]
+    assert pumped == pytest.approx([0.5, 0.4], rel=1e-9)

@@ -246,7 +246,9 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     idx = np.concatenate([np.arange(ph.i0, ph.i1) for ph in pumps])
     p = ps[idx]
     nstart = max(1, min(members[0].i1 - members[0].i0, opt.settle_samples))
-    p0 = float(np.min(p[:nstart]))
+    # the level the pumping started from: on a coarse log the first pumping sample may
+    # already be well up the rise, the sample before it is not
+    p0 = float(np.min(ps[max(idx[0] - 1, 0): idx[0] + nstart]))
     k = int(np.argmax(p))
     pk = float(p[k])
     gain = pk - p0
@@ -262,8 +264,15 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     tp = _pump_time(t, members, kmain)
     hold_s, hold_fall = _hold(t, members, kmain, ps, base, tp, opt)
     held = hold_s >= opt.min_hold_ratio * tp and hold_fall <= opt.hold_max_drop
-    held_text = (f"held {hold_s / 60:.0f} min, fell {100 * hold_fall:.0f} % of the pressure"
-                 if hold_s > 0 else "not held")
+    if hold_s <= 0:
+        held_text = "not held"
+    elif hold_fall >= 1.0:
+        # the fall is read relative to the pressure above base: at or below base it is all
+        # of it (a falloff into a formation below the well's hydrostatic level)
+        held_text = f"held {hold_s / 60:.0f} min, fell to the pre-test level"
+    else:
+        held_text = (f"held {hold_s / 60:.0f} min, fell {100 * hold_fall:.0f} % of the "
+                     "pressure above the pre-test level")
     hint = _event_hint(record, members, 15 * opt.settle_samples)
     pumped = float(sum(ph.pumped_m3 for ph in pumps))
     head = f"+{gain / _BAR:.0f} bar to {pk / _BAR:.0f} bar gauge"

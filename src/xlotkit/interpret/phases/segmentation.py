@@ -153,6 +153,18 @@ def _merge_short(rs, shortest: int) -> list[tuple[str, int, int]]:
     return out
 
 
+def _own_first_step(cum: np.ndarray | None, starts) -> np.ndarray | None:
+    """``cum`` with the step into each of the sample indices ``starts`` moved to the phase
+    that starts there: a phase over ``[i0, i1)`` counts ``cum[i1] - cum[i0]``."""
+    if cum is None:
+        return None
+    out = np.array(cum, float, copy=True)
+    for a in starts:
+        if a > 0:
+            out[a] = cum[a - 1]
+    return out
+
+
 def _make_phase(record: Record, kind: str, i0: int, i1: int, cum_in, cum_out,
                 bits: np.ndarray) -> Phase:
     """A :class:`Phase` over samples ``[i0, i1)`` with volumes, peak, mean rate, evidence."""
@@ -350,6 +362,12 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     # totaliser that counts in 0.1 m^3 steps
     pv_volume = cum_rate(t, rate) if used_rate else cum_in
 
+    # a totaliser logs the volume moved since the sample before: the step into the first
+    # sample of a pump phase (or of a flowback / bleed) was pumped (returned) by that phase,
+    # not by the shut-in before it (on a 30 s log that step is a whole sample's pumping)
+    cum_in = _own_first_step(cum_in, [a for kind, a, _ in rs if kind == "pump"])
+    cum_out = _own_first_step(cum_out, [a for kind, a, _ in rs
+                                        if kind in ("flowback", "bleed")])
     phases = [_make_phase(record, kind, a, b, cum_in, cum_out, bits) for kind, a, b in rs]
     phases, groups = _cycle_groups(phases, ps, base, span, band, noise, opt,
                                      pressure_only=not used_rate)
