@@ -207,3 +207,16 @@ def test_lumped_dfit_and_xlot_from_the_pressure_alone(tmp_path):
     for k, (a, b) in enumerate(_bounds(seg, "pump")):
         want = _truth_phase(rec, res, "pump", cycle=k + 1)
         assert abs(a - want[0]) <= 3 and abs(b - want[1]) <= 3, (k, (a, b), want)
+
+
+def test_step_rate_from_the_pressure_alone_is_one_cycle_that_says_what_it_cannot_tell():
+    # issue 16 audit D3: the step-rate test's gauge alone gave no cycles (each step's
+    # exponential approach looked like a well recovering after a release; nothing was
+    # released before it). It is one cycle; whether its plateaus are rate steps or holds
+    # the pressure cannot tell, and the reason says so instead of guessing a kind
+    t, p, q, truth = step_rate_arrays()
+    seg = segment(Record(t=t, pressure=p * BAR))
+    assert len(seg.cycles) == 1
+    c = seg.cycles[0]
+    assert c.kind == "other" and "only a metered rate can tell" in c.reason, c.reason
+    assert c.phases[0].i0 <= truth["pump"][0] + 60  # the first rise, within a step's rise

@@ -178,6 +178,7 @@ class CycleShape:
     has_flowback: bool
     steps: tuple[RateStep, ...]
     hint: str
+    staged: int = 0
 
 
 def _pump_time(t: np.ndarray, members: tuple[Phase, ...], kmain: int) -> float:
@@ -345,6 +346,12 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
         shut = float(t[min(ph.i1, t.size - 1)] - t[members[kmain].i1])
     has_flowback = any(ph.kind == "flowback" for ph in members)
     steps = rate_steps(record, pumps, opt, gain=gain)
+    # without a rate: pump phases (rises) each to a higher level than the one before, the
+    # level held between them -- rate steps or pressurisation stages
+    staged = 0
+    if record.rate is None and len(pumps) > 1:
+        tops = [float(np.max(ps[ph.i0:ph.i1])) for ph in pumps]
+        staged = len(pumps) if all(b > a for a, b in zip(tops, tops[1:])) else 0
     return CycleShape(head=head, p0=p0, peak=pk, gain=gain, volume_to_peak=vpk,
                       volume_pumped=float(x_total) if have_v else None,
                       stiffness=None if stiff_v is None else float(stiff_v),
@@ -353,7 +360,7 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
                       held_text=held_text,
                       single_injection=n_pumps == 1 and not repressurised,
                       falloff_ratio=shut / tp if tp > 0 else 0.0,
-                      has_flowback=has_flowback, steps=steps, hint=hint)
+                      has_flowback=has_flowback, steps=steps, hint=hint, staged=staged)
 
 
 def _steps_text(steps: tuple[RateStep, ...]) -> str:
@@ -414,6 +421,16 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
                                            f"levels up to {levels[top] * 6e4:.4g} l/min and "
                                            f"down again: {txt}{s.fell_text}{s.hint}"))
                 continue
+        # ------------------------------------------------------------ staged, no rate
+        if s.staged >= opt.min_rate_steps:
+            # the plateaus may be the pump running at a steady rate (a step-rate test) or
+            # holds between pressurisation stages: the pressure alone cannot tell
+            out.append(("other", f"other: {s.head}; from the pressure alone: {s.staged} "
+                                 "rises, each to a higher level held before the next -- the "
+                                 "rate steps of a step-rate test or the stages of a "
+                                 "pressurisation, which only a metered rate can tell apart "
+                                 f"(and give the FEP){s.hint}"))
+            continue
         # ------------------------------------------------------------ departure
         if s.departed:
             base_kind = "xlot" if s.xlot else "lot"

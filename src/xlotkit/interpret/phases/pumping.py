@@ -119,6 +119,12 @@ def rises(t: np.ndarray, ps: np.ndarray, dpdt: np.ndarray, allowed: np.ndarray,
             dur = float(t[b - 1] - t[a])
             if dur <= 0:
                 continue
+            # a well recovers only towards a pressure it had before (a release came first):
+            # a rise to above anything earlier in the record is pumping whatever its shape
+            # (a step-rate test's steps approach their levels exponentially)
+            if a > 0 and float(np.max(ps[:a])) < float(ps[b - 1]) - threshold:
+                out.append(_rise(t, ps, dpdt, a, b, gain))
+                continue
             half = a + int(np.argmax(ps[a:b] >= ps[a] + 0.5 * gain))
             if (t[half] - t[a]) / dur < opt.rise_linearity:
                 continue
@@ -133,11 +139,16 @@ def rises(t: np.ndarray, ps: np.ndarray, dpdt: np.ndarray, allowed: np.ndarray,
                         float(t[min(i50 + smooth, n - 1)] - t[i50]))
             if float(t[e10] - t[i50]) > allow:
                 continue
-            i10 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.1 * gain))
-            i90 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.9 * gain))
-            span_t = max(float(t[i90] - t[i10]), float(t[min(a + 1, n - 1)] - t[a]), 1e-300)
-            out.append(Rise(a, b, gain, float(np.max(dpdt[a:b])), 0.8 * gain / span_t))
+            out.append(_rise(t, ps, dpdt, a, b, gain))
     return out
+
+
+def _rise(t, ps, dpdt, a: int, b: int, gain: float) -> Rise:
+    n = ps.size
+    i10 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.1 * gain))
+    i90 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.9 * gain))
+    span_t = max(float(t[i90] - t[i10]), float(t[min(a + 1, n - 1)] - t[a]), 1e-300)
+    return Rise(a, b, gain, float(np.max(dpdt[a:b])), 0.8 * gain / span_t)
 
 
 def unmetered_rises(t, ps, dpdt, pump, threshold, opt: SegmentOptions) -> list[Rise]:

@@ -443,6 +443,12 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
             restart = (phases[k - 1].kind == "shut_in"
                        and phases[k - 1].i1 - phases[k - 1].i0 >= opt.min_phase_samples
                        and amount(ph) >= opt.restart_fraction * g["amount"] > 0)
+            if restart and pressure_only:
+                # without a rate, pumping on from the level the last rise reached, not
+                # fallen from it beyond the noise (a staircase: the pump held at a rate, the
+                # pressure still approaching its level), is the same pressurisation; a
+                # shut-in well pumped again (a held test pressurised further) had leaked off
+                restart = g["peak"] - p_start > opt.noise_multiple * noise
             if not (released or restart):
                 g["pumps"].append(k)
                 g["amount"] += amount(ph)
