@@ -383,3 +383,24 @@ def test_cli_window_across_a_phase_boundary(tmp_path):
     assert user["value_bar"] is not None and user["value_bar"] != auto["value_bar"]
     r = CliRunner().invoke(main, ["pick", str(path), "--window", "1:sqrt_t=700:1300"])
     assert r.exit_code == 0 and "Traceback" not in r.output
+
+
+def test_a_test_hours_after_another_is_a_new_test_with_its_own_breakdown():
+    # issue 16 audit D3: on the AMS-01 XLOT 1 gauge (left in the hole) a pressure test six
+    # hours before the XLOT was the "first test cycle": its FBP and the XLOT's Pr gave
+    # T0 = -57 bar. A test cycle after the well stood idle longer than the test before it
+    # lasted opens a new test
+    from xlotkit.interpret.picks.core import test_sequences
+
+    def cyc(i, kind, t0, t1):
+        return Cycle(i, kind, (), t0, t1, 1e7, 1.0, 0.0)
+
+    cycles = [cyc(1, "dfit", 0.0, 1000.0),          # a 1000 s test
+              cyc(2, "line_test", 1500.0, 1600.0),  # not a test cycle
+              cyc(3, "xlot", 21000.0, 23000.0),     # 20000 s idle > 1000 s: a new test
+              cyc(4, "xlot", 23300.0, 24000.0),     # 300 s later: its reopening
+              cyc(5, "xlot", 25000.0, 26000.0)]     # 1000 s < 3000 s of the test so far
+    assert test_sequences(cycles) == [[0], [2, 3, 4]]
+    # a test's own reopening cycles stay in it however long the shut-ins between
+    assert test_sequences([cyc(1, "xlot", 0.0, 600.0), cyc(2, "xlot", 1100.0, 2000.0)]) \
+        == [[0, 1]]
