@@ -390,7 +390,7 @@ def test_a_test_hours_after_another_is_a_new_test_with_its_own_breakdown():
     # hours before the XLOT was the "first test cycle": its FBP and the XLOT's Pr gave
     # T0 = -57 bar. A test cycle after the well stood idle longer than the test before it
     # lasted opens a new test
-    from xlotkit.interpret.picks.core import test_sequences
+    from xlotkit.interpret.picks.core import separate_tests
 
     def cyc(i, kind, t0, t1):
         return Cycle(i, kind, (), t0, t1, 1e7, 1.0, 0.0)
@@ -400,7 +400,7 @@ def test_a_test_hours_after_another_is_a_new_test_with_its_own_breakdown():
               cyc(3, "xlot", 21000.0, 23000.0),     # 20000 s idle > 1000 s: a new test
               cyc(4, "xlot", 23300.0, 24000.0),     # 300 s later: its reopening
               cyc(5, "xlot", 25000.0, 26000.0)]     # 1000 s < 3000 s of the test so far
-    assert test_sequences(cycles) == [[0], [2, 3, 4]]
+    assert separate_tests(cycles) == [[0], [2, 3, 4]]
     # a test's own reopening cycles stay in it however long the shut-ins between
-    assert test_sequences([cyc(1, "xlot", 0.0, 600.0), cyc(2, "xlot", 1100.0, 2000.0)]) \
+    assert separate_tests([cyc(1, "xlot", 0.0, 600.0), cyc(2, "xlot", 1100.0, 2000.0)]) \
         == [[0, 1]]

@@ -281,7 +281,7 @@ class SegmentOptions:
         factor = duration / (self.time_resolution * dt)
         if factor >= 1.0:
             return self
-        new = {name: max(floor, int(round(getattr(self, name) * factor)))
+        new = {name: max(floor, round(getattr(self, name) * factor))
                for name, floor in _WINDOWS.items()}
         for name in _ODD:  # a running median's window stays centred: odd
             if getattr(self, name) % 2 == 1 and new[name] % 2 == 0:

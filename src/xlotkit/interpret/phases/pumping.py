@@ -190,10 +190,11 @@ def _pulsing(p: np.ndarray, a: int, b: int, level: float) -> bool:
     return float(np.median(d2)) / (0.6745 * np.sqrt(6.0)) > level
 
 
-def _stop_after_breakdown(t, ps, raw, s0: int, s1: int, stop_at: int, tol: float,
-                          noise: float, base: float, rough_level: float,
+def _stop_after_breakdown(ps, raw, s1: int, stop_at: int, tol: float, noise: float,
+                          base: float, rough_level: float,
                           opt: SegmentOptions) -> int | None:
-    """End of pumping [sample index, exclusive] after a breakdown at ``[s0, s1]``, or None.
+    """End of pumping [sample index, exclusive] after a breakdown fall ending at ``s1``, or
+    None.
 
     Pumping goes on after a breakdown at a propagation pressure about constant or rising in
     time; after a pump stop the pressure declines. The pump stop is the last sudden fall
@@ -260,8 +261,8 @@ def pressure_pumping(t, ps, found: list[Rise], base: float, noise: float,
                 continue  # the fall is the release to base, not a pump stop
             if s1 < stop_at and float(np.max(ps[s1:stop_at])) > ps[s1] + tol:
                 # pumping went on after it: a breakdown; the pump stops at a later fall
-                later_stop = _stop_after_breakdown(t, ps, raw, s0, s1, stop_at, tol, noise,
-                                                   base, rough_level, opt)
+                later_stop = _stop_after_breakdown(ps, raw, s1, stop_at, tol, noise, base,
+                                                   rough_level, opt)
                 if later_stop is None:
                     continue
                 end, stopped = later_stop, True
@@ -275,7 +276,7 @@ def pressure_pumping(t, ps, found: list[Rise], base: float, noise: float,
             # then a later, smaller sudden fall (friction and entry loss vanishing)
             w_up = ps[s1:min(s1 + w, stop_at)]
             if w_up.size and float(np.max(w_up)) > ps[s1] + opt.noise_multiple * noise:
-                end = _stop_after_breakdown(t, ps, raw, s0, s1, stop_at, tol, noise, base,
+                end = _stop_after_breakdown(ps, raw, s1, stop_at, tol, noise, base,
                                             rough_level, opt) or end
             break
         if not stopped and _pulsing(raw, end, min(end + w, stop_at), rough_level):

@@ -14,7 +14,7 @@ step-rate test, stimulation ...).
 
 * ``ISIP``: every cycle with a pump stop followed by a shut-in, whatever its kind (for a line
   or casing test it is the pressure the system held).
-* The first test cycle of each test (:func:`test_sequences`: a test cycle after the well
+* The first test cycle of each test (:func:`separate_tests`: a test cycle after the well
   stood idle longer than the test before it lasted opens a new one): ``LOP`` and ``FBP``
   (the breakdown event; the pick reports "not found" when the pressure never fell at an
   unchanged rate). Later test cycles: ``Pr`` (reopening). Every test cycle: ``FPP``; a ``step_rate`` cycle also ``FEP``, the
@@ -124,8 +124,6 @@ __all__ = [
     "FCP_METHODS",
     "METHODS",
     "NO_DEPARTURE_KINDS",
-    "breakdown_and_reopening",
-    "test_sequences",
     "PICK_NAMES",
     "SHUTIN_METHOD_NAMES",
     "Consistency",
@@ -134,12 +132,14 @@ __all__ = [
     "PickMethod",
     "PickOptions",
     "RecordPicks",
+    "breakdown_and_reopening",
     "consensus_fcp",
     "consensus_rule",
     "is_test_cycle",
     "pick_cycle",
     "pick_record",
     "reconcile_closures",
+    "separate_tests",
 ]
 
 #: Shut-in closure methods (the keys of :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS`).
@@ -854,7 +854,7 @@ class Consistency:
     closure: ClosureAgreement | None = None
 
 
-def test_sequences(cycles: Sequence[Cycle]) -> list[list[int]]:
+def separate_tests(cycles: Sequence[Cycle]) -> list[list[int]]:
     """The record's tests: runs of test cycles (indices into ``cycles``) on one fracture.
 
     A test cycle after the well stood idle for longer than the test before it lasted (from
@@ -876,9 +876,9 @@ def test_sequences(cycles: Sequence[Cycle]) -> list[list[int]]:
 
 
 def breakdown_and_reopening(cycles: Sequence[CyclePicks]) -> tuple[Pick | None, Pick | None]:
-    """FBP and Pr of one test (:func:`test_sequences`): the first test whose first cycle has
+    """FBP and Pr of one test (:func:`separate_tests`): the first test whose first cycle has
     a breakdown and a later cycle a reopening pressure (else the first test's FBP, no Pr)."""
-    seqs = test_sequences([c.cycle for c in cycles])
+    seqs = separate_tests([c.cycle for c in cycles])
     first_fbp = None
     for seq in seqs:
         fbp = cycles[seq[0]].get("FBP")
@@ -1008,7 +1008,7 @@ def pick_record(record: Record, segmentation: Segmentation | None = None, *,
     out: list[CyclePicks] = []
     previous: CyclePicks | None = None
     cycles = segmentation.cycles
-    opens = {seq[0] for seq in test_sequences(cycles)}
+    opens = {seq[0] for seq in separate_tests(cycles)}
     for k, cyc in enumerate(cycles):
         t_next = cycles[k + 1].t_start if k + 1 < len(cycles) else np.inf
         after = tuple(ph for ph in segmentation.phases
