@@ -177,3 +177,46 @@ def test_an_xlot_whose_rate_was_raised_after_breakdown_stays_an_xlot():
     q[1:n0] = 100.0
     seg = segment(to_record(t, p, q))
     assert [c.kind for c in seg.cycles] == ["xlot"]
+
+
+# ----------------------------------------------------------------------------- pressure only
+def test_lumped_dfit_and_xlot_from_the_pressure_alone(tmp_path):
+    # issue 16 audit D3: the lumped model breaks down with a large, sudden fall onto a
+    # propagation plateau while the pump runs on (the pressure climbs back after it), and
+    # stops with a fall of a bar or two (the entry loss): from the pressure alone the first
+    # fall was taken as the pump stop -- a DFIT became a casing test, the reopening cycles of
+    # an XLOT casing tests
+    sched = Schedule((Pump(300 * LPM, duration=520.0, name="injection"),
+                      ShutIn(duration=5400.0, name="falloff")))
+    rec, res = lumped_log(tmp_path, "dfit", sched, noise=0.05e5, dt=1.0)
+    seg = segment(Record(t=rec.t, pressure=rec.pressure))
+    assert [c.kind for c in seg.cycles] == ["dfit"], [c.reason for c in seg.cycles]
+    (pump,) = _bounds(seg, "pump")
+    want = _truth_phase(rec, res, "pump")
+    # the pump stop is the 1 bar entry-loss fall: within 2 samples of the simulator's
+    assert abs(pump[1] - want[1]) <= 2, (pump, want)
+    # the audit's XLOT: each cycle pumped, shut in 8 min, flowed back to 26 MPa, shut in
+    sched = Schedule(tuple(x for k in range(3) for x in (
+        Pump(500 * LPM, volume=2.0 if k == 0 else 1.5, name=f"pump{k}"),
+        ShutIn(duration=480.0, name=f"shut{k}"),
+        schedule.Flowback(initial_rate=300 * LPM, pressure_below=26e6, name=f"flow{k}"),
+        ShutIn(duration=300.0, name=f"rest{k}"))))
+    rec, res = lumped_log(tmp_path, "xlot3", sched, noise=0.05e5, dt=1.0)
+    seg = segment(Record(t=rec.t, pressure=rec.pressure))
+    assert [c.kind for c in seg.cycles] == ["xlot"] * 3, [c.reason for c in seg.cycles]
+    for k, (a, b) in enumerate(_bounds(seg, "pump")):
+        want = _truth_phase(rec, res, "pump", cycle=k + 1)
+        assert abs(a - want[0]) <= 3 and abs(b - want[1]) <= 3, (k, (a, b), want)
+
+
+def test_step_rate_from_the_pressure_alone_is_one_cycle_that_says_what_it_cannot_tell():
+    # issue 16 audit D3: the step-rate test's gauge alone gave no cycles (each step's
+    # exponential approach looked like a well recovering after a release; nothing was
+    # released before it). It is one cycle; whether its plateaus are rate steps or holds
+    # the pressure cannot tell, and the reason says so instead of guessing a kind
+    t, p, q, truth = step_rate_arrays()
+    seg = segment(Record(t=t, pressure=p * BAR))
+    assert len(seg.cycles) == 1
+    c = seg.cycles[0]
+    assert c.kind == "other" and "only a metered rate can tell" in c.reason, c.reason
+    assert c.phases[0].i0 <= truth["pump"][0] + 60  # the first rise, within a step's rise

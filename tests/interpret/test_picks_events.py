@@ -14,6 +14,8 @@ is the construction, not anything the picks computed.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from phase_fixtures import dfit_arrays, to_record
@@ -329,3 +331,76 @@ def test_closure_window_across_a_mislabelled_boundary():
     assert abs(pk.t - (t_s + 900.0)) < 60.0
     assert pk.details.data_window[1] > 5000.0
     assert "overrides the end of the shut-in" in pk.message
+
+
+def test_a_user_window_overrides_the_pump_off_drop_rejection():
+    # issue 16 audit D7: the same candidate from a user window is kept -- the user chose the
+    # window -- at quality poor, with the automatic rejection's reason as a warning
+    rec, cyc, _, _ = _shutin_then_valve(gc=1.2)
+    pc = 160 * BAR - 4.0 * BAR * 1.2
+    d = np.arange(1.0, 2400.0)
+    d_c = float(d[np.searchsorted(g_function(d, T_PUMP), 1.2)])  # closure [s after stop]
+    win = (T_PUMP + 60.0, T_PUMP + 0.7 * d_c)  # the straight stretch before closure
+    for name in ("sqrt_t", "g_function", "tangent"):
+        pk = SHUTIN_METHODS[name](rec, cyc, window=win, isip=pc - 1 * BAR)
+        assert pk.found, (name, pk.message)
+        assert pk.quality == "poor"
+        assert "warning: inside the pump-off drop" in pk.message, (name, pk.message)
+        # the override adds the warning, nothing else: the same window with an ISIP that
+        # rejects nothing gives the same pick
+        free = SHUTIN_METHODS[name](rec, cyc, window=win)
+        assert free.found and "warning" not in free.message, (name, free.message)
+        assert pk.value == pytest.approx(free.value, rel=1e-12), name
+
+
+def test_cli_window_across_a_phase_boundary(tmp_path):
+    # issue 16 audit D7: `xlotkit pick --window` across the shut-in -> flowback boundary of
+    # the constructed two-cycle XLOT (flowback phase from t = 1200 s): the decline is taken
+    # on past the boundary, and the pick says so
+    from click.testing import CliRunner
+    from phase_fixtures import write_csv
+    from test_phases import two_cycle_xlot
+
+    from xlotkit.cli import main
+
+    b = two_cycle_xlot()
+    p = np.asarray(b.p) + np.random.default_rng(0).normal(0.0, 0.2, len(b.p))
+    path = tmp_path / "xlot.csv"
+    write_csv(path, np.arange(p.size, dtype=float), p, np.asarray(b.q), np.asarray(b.r))
+
+    def sqrt_t(*args):
+        r = CliRunner().invoke(main, ["pick", str(path), "--json", *args])
+        assert r.exit_code == 0, r.output
+        cyc = json.loads(r.stdout)["cycles"][0]
+        (pk,) = [x for x in cyc["picks"] if x["method"] == "sqrt_t"]
+        return pk
+
+    auto = sqrt_t()
+    user = sqrt_t("--window", "1:sqrt_t=700:1300")
+    assert "overrides the end of the shut-in at t = 1199 s" in user["message"]
+    assert "overrides" not in auto["message"]
+    # the user's straight stretch decides the pick: found, and not the automatic one
+    assert user["value_bar"] is not None and user["value_bar"] != auto["value_bar"]
+    r = CliRunner().invoke(main, ["pick", str(path), "--window", "1:sqrt_t=700:1300"])
+    assert r.exit_code == 0 and "Traceback" not in r.output
+
+
+def test_a_test_hours_after_another_is_a_new_test_with_its_own_breakdown():
+    # issue 16 audit D3: on the AMS-01 XLOT 1 gauge (left in the hole) a pressure test six
+    # hours before the XLOT was the "first test cycle": its FBP and the XLOT's Pr gave
+    # T0 = -57 bar. A test cycle after the well stood idle longer than the test before it
+    # lasted opens a new test
+    from xlotkit.interpret.picks.core import separate_tests
+
+    def cyc(i, kind, t0, t1):
+        return Cycle(i, kind, (), t0, t1, 1e7, 1.0, 0.0)
+
+    cycles = [cyc(1, "dfit", 0.0, 1000.0),          # a 1000 s test
+              cyc(2, "line_test", 1500.0, 1600.0),  # not a test cycle
+              cyc(3, "xlot", 21000.0, 23000.0),     # 20000 s idle > 1000 s: a new test
+              cyc(4, "xlot", 23300.0, 24000.0),     # 300 s later: its reopening
+              cyc(5, "xlot", 25000.0, 26000.0)]     # 1000 s < 3000 s of the test so far
+    assert separate_tests(cycles) == [[0], [2, 3, 4]]
+    # a test's own reopening cycles stay in it however long the shut-ins between
+    assert separate_tests([cyc(1, "xlot", 0.0, 600.0), cyc(2, "xlot", 1100.0, 2000.0)]) \
+        == [[0, 1]]

@@ -7,13 +7,18 @@ exactly (``phase_fixtures.step_rate_arrays``).
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from phase_fixtures import BAR, LPM, step_rate_arrays, to_record
 
 from xlotkit import Record
 from xlotkit.interpret.phases import segment
+from xlotkit.interpret.picks.core import pick_record
+from xlotkit.interpret.picks.details import RateStepPoint, StepRateDetails
 from xlotkit.interpret.picks.intervals import LEVEL
+from xlotkit.interpret.report import _jsonable
 from xlotkit.interpret.picks.steprate import fep_two_lines, pick_fep
 
 
@@ -82,3 +87,36 @@ def test_unstabilised_steps_are_left_out_and_named():
     seg = segment(rec)
     pk = pick_fep(rec, seg.cycles[0])
     assert not pk.found and "not stabilised" in pk.message
+
+
+def test_fep_details_are_typed_and_the_lines_meet_at_the_pick():
+    # issue 16 audit D8: the FEP details were a dict; they are a StepRateDetails whose two
+    # lines meet at the picked pressure (checked from the lines, not the pick's own number)
+    t, p, q, truth = step_rate_arrays()
+    rec = to_record(t, p, q)
+    fep = pick_fep(rec, segment(rec).cycles[0])
+    d = fep.details
+    assert isinstance(d, StepRateDetails)
+    assert all(isinstance(s, RateStepPoint) for s in d.steps) and len(d.steps) == 8
+    assert d.points_lower + d.points_upper == sum(s.stable for s in d.steps)
+    # the lines cross at q_fep; there both give the FEP (floating point only)
+    assert d.line_lower(d.q_fep) == pytest.approx(fep.value, rel=1e-9)
+    assert d.line_upper(d.q_fep) == pytest.approx(fep.value, rel=1e-9)
+    assert d.slope_ratio == pytest.approx(d.line_upper.slope / d.line_lower.slope)
+    # the construction breaks at 170 l/min
+    assert d.q_fep == pytest.approx(170 * LPM, rel=0.05)
+    m = d.to_dict()
+    json.dumps(_jsonable(d))
+    assert {"steps", "line_lower", "line_upper", "q_fep", "slope_ratio", "interval"} <= set(m)
+
+
+def test_a_step_rate_cycle_has_no_lop_but_an_fep():
+    # issue 16 audit D4: the LOP was picked on step-rate cycles, where the pressure bends at
+    # every rate step -- a departure from the first line is the second step, not leak-off
+    t, p, q, _ = step_rate_arrays()
+    rec = to_record(t, p, q)
+    cp = pick_record(rec).cycles[0]
+    assert cp.cycle.kind == "step_rate"
+    assert cp.get("LOP") is None and cp.get("Pr") is None
+    assert cp.get("FEP") is not None and cp.get("FEP").found
+    assert any("no LOP" in n for n in cp.notes)

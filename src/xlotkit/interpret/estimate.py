@@ -205,6 +205,7 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     StressSummary
     """
     from xlotkit.interpret import stress as st
+    from xlotkit.interpret.picks.core import breakdown_and_reopening
 
     inputs = inputs or StressInputs()
     record = record_picks.record
@@ -290,8 +291,11 @@ def estimate_stress(record_picks, inputs: StressInputs | None = None,
     t0v = t0.value if t0.found else None
     sigma_H: dict[str, dict[str, Any]] = {}
     estimates = None
-    pr = next((c.get("Pr") for c in record_picks.test_cycles[1:]
-               if c.get("Pr") is not None and c.get("Pr").found), None)
+    # the reopening pressure of the same test as the breakdown (not of another operation)
+    _, pr = breakdown_and_reopening(record_picks.cycles)
+    if pr is None:
+        pr = next((c.get("Pr") for c in record_picks.test_cycles[1:]
+                   if c.get("Pr") is not None and c.get("Pr").found), None)
     regime = None
     omitted: list[str] = []
     p0_words = {"given": "given", "after-closure": "from the after-closure analysis",

@@ -178,6 +178,7 @@ class CycleShape:
     has_flowback: bool
     steps: tuple[RateStep, ...]
     hint: str
+    staged: int = 0
 
 
 def _pump_time(t: np.ndarray, members: tuple[Phase, ...], kmain: int) -> float:
@@ -246,7 +247,9 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     idx = np.concatenate([np.arange(ph.i0, ph.i1) for ph in pumps])
     p = ps[idx]
     nstart = max(1, min(members[0].i1 - members[0].i0, opt.settle_samples))
-    p0 = float(np.min(p[:nstart]))
+    # the level the pumping started from: on a coarse log the first pumping sample may
+    # already be well up the rise, the sample before it is not
+    p0 = float(np.min(ps[max(idx[0] - 1, 0): idx[0] + nstart]))
     k = int(np.argmax(p))
     pk = float(p[k])
     gain = pk - p0
@@ -262,8 +265,15 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     tp = _pump_time(t, members, kmain)
     hold_s, hold_fall = _hold(t, members, kmain, ps, base, tp, opt)
     held = hold_s >= opt.min_hold_ratio * tp and hold_fall <= opt.hold_max_drop
-    held_text = (f"held {hold_s / 60:.0f} min, fell {100 * hold_fall:.0f} % of the pressure"
-                 if hold_s > 0 else "not held")
+    if hold_s <= 0:
+        held_text = "not held"
+    elif hold_fall >= 1.0:
+        # the fall is read relative to the pressure above base: at or below base it is all
+        # of it (a falloff into a formation below the well's hydrostatic level)
+        held_text = f"held {hold_s / 60:.0f} min, fell to the pre-test level"
+    else:
+        held_text = (f"held {hold_s / 60:.0f} min, fell {100 * hold_fall:.0f} % of the "
+                     "pressure above the pre-test level")
     hint = _event_hint(record, members, 15 * opt.settle_samples)
     pumped = float(sum(ph.pumped_m3 for ph in pumps))
     head = f"+{gain / _BAR:.0f} bar to {pk / _BAR:.0f} bar gauge"
@@ -275,9 +285,14 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
     # ------------------------------------------------------------ p-V linearity
     lo, hi = p0 + 0.15 * gain, p0 + 0.6 * gain
     sel = np.flatnonzero((p[: k + 1] >= lo) & (p[: k + 1] <= hi))
+    if sel.size < 3:
+        # a coarse log puts fewer than 3 samples in that band: the line is read over the
+        # lower three quarters of the rise instead (still below any leak-off bend), through
+        # two samples if that is all the log has there
+        sel = np.flatnonzero((p[: k + 1] >= p0 + 0.05 * gain) & (p[: k + 1] <= p0 + 0.75 * gain))
     slope = None
     dep = None
-    if sel.size >= 3 and np.ptp(x[sel]) > 0:
+    if sel.size >= 2 and np.ptp(x[sel]) > 0:
         slope, icpt = np.polyfit(x[sel], p[sel], 1)
         if slope > 0:
             tol = opt.departure_tolerance * gain
@@ -331,6 +346,12 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
         shut = float(t[min(ph.i1, t.size - 1)] - t[members[kmain].i1])
     has_flowback = any(ph.kind == "flowback" for ph in members)
     steps = rate_steps(record, pumps, opt, gain=gain)
+    # without a rate: pump phases (rises) each to a higher level than the one before, the
+    # level held between them -- rate steps or pressurisation stages
+    staged = 0
+    if record.rate is None and len(pumps) > 1:
+        tops = [float(np.max(ps[ph.i0:ph.i1])) for ph in pumps]
+        staged = len(pumps) if all(b > a for a, b in zip(tops, tops[1:])) else 0
     return CycleShape(head=head, p0=p0, peak=pk, gain=gain, volume_to_peak=vpk,
                       volume_pumped=float(x_total) if have_v else None,
                       stiffness=None if stiff_v is None else float(stiff_v),
@@ -339,7 +360,7 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
                       held_text=held_text,
                       single_injection=n_pumps == 1 and not repressurised,
                       falloff_ratio=shut / tp if tp > 0 else 0.0,
-                      has_flowback=has_flowback, steps=steps, hint=hint)
+                      has_flowback=has_flowback, steps=steps, hint=hint, staged=staged)
 
 
 def _steps_text(steps: tuple[RateStep, ...]) -> str:
@@ -400,6 +421,16 @@ def classify(shapes: list[CycleShape], opt: SegmentOptions) -> list[tuple[str, s
                                            f"levels up to {levels[top] * 6e4:.4g} l/min and "
                                            f"down again: {txt}{s.fell_text}{s.hint}"))
                 continue
+        # ------------------------------------------------------------ staged, no rate
+        if s.staged >= opt.min_rate_steps:
+            # the plateaus may be the pump running at a steady rate (a step-rate test) or
+            # holds between pressurisation stages: the pressure alone cannot tell
+            out.append(("other", f"other: {s.head}; from the pressure alone: {s.staged} "
+                                 "rises, each to a higher level held before the next -- the "
+                                 "rate steps of a step-rate test or the stages of a "
+                                 "pressurisation, which only a metered rate can tell apart "
+                                 f"(and give the FEP){s.hint}"))
+            continue
         # ------------------------------------------------------------ departure
         if s.departed:
             base_kind = "xlot" if s.xlot else "lot"

@@ -3,14 +3,18 @@
 No option is a pressure, a rate or a time in physical units. Pressures are compared with the
 record's own noise and its pressure span above the pre-test level, rates with the record's
 own rate scale, speeds of rise and fall with other rises and falls of the same record, and
-windows are counted in samples. A log written in other units, or the same test run at another
-pressure, rate or speed, is segmented the same way (``tests/interpret/test_phases_units.py``).
+windows are counted in samples of the record's *resolution*: its own sampling interval, or a
+fraction ``1 / time_resolution`` of its duration where it is logged more coarsely than that
+(:meth:`SegmentOptions.for_sampling`). A log written in other units, or the same test run at
+another pressure, rate or speed, is segmented the same way
+(``tests/interpret/test_phases_units.py``), and so is the same log decimated
+(``tests/interpret/test_phases_sampling.py``).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from xlotkit.errors import InputError
 
@@ -25,7 +29,16 @@ _FRACTIONS = ("pump_on", "pump_off", "return_on", "return_off", "idle_fraction",
               "hold_max_drop", "rate_step_change", "rate_step_stable", "base_dwell_fraction")
 #: Options that are whole numbers of samples (>= 1).
 _SAMPLES = ("smooth_samples", "slope_half", "rate_filter_samples", "gap_samples",
-            "min_pump_samples", "min_phase_samples", "settle_samples", "min_rate_steps")
+            "min_pump_samples", "min_phase_samples", "settle_samples", "min_rate_steps",
+            "time_resolution", "min_return_samples")
+#: The windows: sample counts that stand for a stretch of time (``min_rate_steps`` counts
+#: rate steps, not samples), with the fewest samples each can shrink to on a coarse log
+#: (a median needs 3 samples to drop a spike; a phase needs 2 samples to have a slope).
+_WINDOWS = {"smooth_samples": 1, "slope_half": 1, "rate_filter_samples": 1,
+            "gap_samples": 1, "min_pump_samples": 2, "min_phase_samples": 2,
+            "settle_samples": 2, "min_return_samples": 2}
+#: Windows of running medians, kept odd when scaled.
+_ODD = ("smooth_samples", "rate_filter_samples")
 
 
 @dataclass(frozen=True)
@@ -52,6 +65,8 @@ class SegmentOptions:
     min_phase_samples : int
         Shortest shut-in / flowback / idle phase kept; shorter ones join a neighbour
         [samples] [15].
+    min_return_samples : int
+        Shortest run of returns that is a flowback; a shorter one is a valve cycled [30].
     settle_samples : int
         Samples after a pump stop before its shut-in decline is read, and before a pump
         start that give the level it started from [20].
@@ -163,6 +178,12 @@ class SegmentOptions:
     base_dwell_fraction : float
         A record that starts pressurised has as base the lowest level where it dwells at
         least this fraction of its length [0.05].
+    time_resolution : int
+        The windows above are counted in samples of a record logged at least this finely
+        over its duration [1500]; a coarser log (a 10 s or 30 s decimation of the same test)
+        counts them in time, ``duration / time_resolution`` per sample, so that no window
+        grows longer in time than on the fine log: a 15-sample minimum phase at 30 s would
+        be 7.5 minutes and swallow a whole flowback (:meth:`for_sampling`).
     """
 
     smooth_samples: int = 7
@@ -172,6 +193,7 @@ class SegmentOptions:
     min_pump_samples: int = 10
     min_phase_samples: int = 15
     settle_samples: int = 20
+    min_return_samples: int = 30
     pump_on: float = 0.03
     pump_off: float = 0.015
     return_on: float = 0.03
@@ -207,6 +229,7 @@ class SegmentOptions:
     rate_step_change: float = 0.05
     rate_step_stable: float = 0.1
     base_dwell_fraction: float = 0.05
+    time_resolution: int = 1500
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -230,3 +253,39 @@ class SegmentOptions:
         for name in ("acceleration", "step_contrast", "line_test_stiffness", "rough_multiple"):
             if getattr(self, name) <= 1.0:
                 raise InputError(f"must be > 1, got {getattr(self, name)!r}", key=name)
+
+    def for_sampling(self, dt: float, duration: float) -> SegmentOptions:
+        """These options with the windows counted in samples of a record's own sampling.
+
+        A window of ``n`` samples stands for ``n`` sampling intervals of a log that resolves
+        the record's ``duration`` into at least ``time_resolution`` samples. A log sampled
+        at ``dt`` coarser than ``duration / time_resolution`` gets ``n`` times that interval
+        in time, i.e. ``n * duration / (time_resolution * dt)`` of its own samples (never
+        fewer than the window's floor); a finer log keeps ``n`` samples. Decimating a record
+        thus leaves every window the same length in time once the log is coarse, and a
+        test run faster or slower (time scaled) keeps the same windows in samples.
+
+        Parameters
+        ----------
+        dt : float
+            The record's median sampling interval [s].
+        duration : float
+            The record's duration [s].
+
+        Returns
+        -------
+        SegmentOptions
+        """
+        if not (dt > 0 and duration > 0 and math.isfinite(dt) and math.isfinite(duration)):
+            return self
+        factor = duration / (self.time_resolution * dt)
+        if factor >= 1.0:
+            return self
+        new = {name: max(floor, round(getattr(self, name) * factor))
+               for name, floor in _WINDOWS.items()}
+        for name in _ODD:  # a running median's window stays centred: odd
+            if getattr(self, name) % 2 == 1 and new[name] % 2 == 0:
+                new[name] = new[name] + 1 if getattr(self, name) * factor > new[name] \
+                    else new[name] - 1
+            new[name] = max(new[name], 1)
+        return replace(self, **new)

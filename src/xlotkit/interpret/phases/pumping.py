@@ -119,6 +119,12 @@ def rises(t: np.ndarray, ps: np.ndarray, dpdt: np.ndarray, allowed: np.ndarray,
             dur = float(t[b - 1] - t[a])
             if dur <= 0:
                 continue
+            # a well recovers only towards a pressure it had before (a release came first):
+            # a rise to above anything earlier in the record is pumping whatever its shape
+            # (a step-rate test's steps approach their levels exponentially)
+            if a > 0 and float(np.max(ps[:a])) < float(ps[b - 1]) - threshold:
+                out.append(_rise(t, ps, dpdt, a, b, gain))
+                continue
             half = a + int(np.argmax(ps[a:b] >= ps[a] + 0.5 * gain))
             if (t[half] - t[a]) / dur < opt.rise_linearity:
                 continue
@@ -133,11 +139,16 @@ def rises(t: np.ndarray, ps: np.ndarray, dpdt: np.ndarray, allowed: np.ndarray,
                         float(t[min(i50 + smooth, n - 1)] - t[i50]))
             if float(t[e10] - t[i50]) > allow:
                 continue
-            i10 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.1 * gain))
-            i90 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.9 * gain))
-            span_t = max(float(t[i90] - t[i10]), float(t[min(a + 1, n - 1)] - t[a]), 1e-300)
-            out.append(Rise(a, b, gain, float(np.max(dpdt[a:b])), 0.8 * gain / span_t))
+            out.append(_rise(t, ps, dpdt, a, b, gain))
     return out
+
+
+def _rise(t, ps, dpdt, a: int, b: int, gain: float) -> Rise:
+    n = ps.size
+    i10 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.1 * gain))
+    i90 = a + int(np.argmax(ps[a:b] >= ps[a] + 0.9 * gain))
+    span_t = max(float(t[i90] - t[i10]), float(t[min(a + 1, n - 1)] - t[a]), 1e-300)
+    return Rise(a, b, gain, float(np.max(dpdt[a:b])), 0.8 * gain / span_t)
 
 
 def unmetered_rises(t, ps, dpdt, pump, threshold, opt: SegmentOptions) -> list[Rise]:
@@ -179,6 +190,41 @@ def _pulsing(p: np.ndarray, a: int, b: int, level: float) -> bool:
     return float(np.median(d2)) / (0.6745 * np.sqrt(6.0)) > level
 
 
+def _stop_after_breakdown(ps, raw, s1: int, stop_at: int, tol: float, noise: float,
+                          base: float, rough_level: float,
+                          opt: SegmentOptions) -> int | None:
+    """End of pumping [sample index, exclusive] after a breakdown fall ending at ``s1``, or
+    None.
+
+    Pumping goes on after a breakdown at a propagation pressure about constant or rising in
+    time; after a pump stop the pressure declines. The pump stop is the last sudden fall
+    (:func:`~xlotkit.interpret.phases.signal.step_drops`, ``noise_multiple`` noise and
+    ``step_contrast``) after ``s1`` before which the pressure has not declined by more than
+    ``tol`` below the level the breakdown fell to, and after which it holds above base and
+    goes quiet. None when there is no such fall: the first fall was the pump stop.
+    """
+    n = ps.size
+    level = float(ps[s1])
+    flat = np.flatnonzero(ps[s1:stop_at] < level - tol)
+    reach = s1 + int(flat[0]) if flat.size else stop_at
+    if reach - s1 < 3:
+        return None
+    size = np.full(n, opt.noise_multiple * noise)
+    w = 2 * opt.settle_samples
+    best = None
+    for a, b in step_drops(ps, s1 + 1, min(reach + 1, stop_at), size,
+                           contrast=opt.step_contrast):
+        later = ps[min(b + opt.settle_samples, n - 1)]
+        if later - base < 0.3 * (ps[a] - base):
+            continue  # a release, not a pump stop
+        if _pulsing(raw, b + 1, min(b + 1 + w, stop_at), rough_level):
+            continue
+        if b < stop_at and float(np.max(ps[b:stop_at])) > ps[b] + tol:
+            continue  # pumping went on after it
+        best = a + 1
+    return best
+
+
 def pressure_pumping(t, ps, found: list[Rise], base: float, noise: float,
                      opt: SegmentOptions, p: np.ndarray | None = None,
                      rough_level: float = np.inf) -> np.ndarray:
@@ -214,11 +260,24 @@ def pressure_pumping(t, ps, found: list[Rise], base: float, noise: float,
             if later - base < 0.3 * (ps[s0] - base):
                 continue  # the fall is the release to base, not a pump stop
             if s1 < stop_at and float(np.max(ps[s1:stop_at])) > ps[s1] + tol:
-                continue  # pumping went on after it: a breakdown
+                # pumping went on after it: a breakdown; the pump stops at a later fall
+                later_stop = _stop_after_breakdown(ps, raw, s1, stop_at, tol, noise, base,
+                                                   rough_level, opt)
+                if later_stop is None:
+                    continue
+                end, stopped = later_stop, True
+                break
             if _pulsing(raw, s1 + 1, min(s1 + 1 + w, stop_at), rough_level):
                 continue  # the pump still runs after it
             end = s0 + 1
             stopped = True
+            # a fall after which the pressure climbs back (beyond the noise) is a breakdown
+            # with the pump still running -- a shut-in well only declines: the pump stop is
+            # then a later, smaller sudden fall (friction and entry loss vanishing)
+            w_up = ps[s1:min(s1 + w, stop_at)]
+            if w_up.size and float(np.max(w_up)) > ps[s1] + opt.noise_multiple * noise:
+                end = _stop_after_breakdown(ps, raw, s1, stop_at, tol, noise, base,
+                                            rough_level, opt) or end
             break
         if not stopped and _pulsing(raw, end, min(end + w, stop_at), rough_level):
             # pulsing after the rise: the pump runs on until the pressure goes quiet

@@ -4,8 +4,10 @@ A fall of pressure while the pump is off is leak-off (a shut-in) unless somethin
 well was opened: returns logged (return rate, growing return volume, a pumped-volume
 totaliser running back), an operator remark, or a decline the shut-in's own leak-off cannot
 explain. Leak-off only slows down with time, so a fall that is ``acceleration`` times faster
-than the decline just before it, and takes away most of the pressure above base, is a release;
-so is a fall that starts at pump stop and reaches base in a small fraction of the pumping
+than the decline just before it, and takes away most of the pressure above base, is a release
+unless it dies away like leak-off (or is still going when the record ends: a valve or choke
+runs the well down and stops, leak-off sped up by a closing fracture goes on for as long as
+the falloff does); so is a fall that starts at pump stop and reaches base in a small fraction of the pumping
 time. No fall rate in bar/min is fixed: the reference is always the same record's decline.
 """
 
@@ -51,7 +53,7 @@ def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
     scale, or of the return rate's own scale when no pump rate is logged), else a growing
     return volume, or a pumped-volume totaliser that runs back while the pump is off (one
     sample's fall larger than twice what the pump moves in one sample at its rate scale is a
-    totaliser reset). Returns shorter than ``2 min_phase_samples`` are a valve cycled, not a
+    totaliser reset). Returns shorter than ``min_return_samples`` are a valve cycled, not a
     flowback.
     """
     t = record.t
@@ -85,7 +87,7 @@ def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
         falling = slope(t, np.cumsum(small_fall), half) < -opt.return_on * scale
         returns |= falling & free
     returns = drop_short(bridge(returns & free, 3 * opt.gap_samples),
-                         2 * opt.min_phase_samples)
+                         opt.min_return_samples)
     return returns & free, have
 
 
@@ -111,8 +113,15 @@ def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOption
         return True
     n = t.size
     i50 = a + int(np.flatnonzero(seg >= 0.5 * top)[-1])
-    low = np.flatnonzero(f[i50:] < 0.1 * top)
-    e10 = min(i50 + int(low[0]) if low.size else n - 1, n - 1)
+    # (the slope's last window is cut short by the record's end: not a reading of the fall)
+    end = max(n - h - opt.smooth_samples // 2, i50 + 1)
+    low = np.flatnonzero(f[i50:end] < 0.1 * top)
+    if not low.size:
+        # the fall never dies down before the record ends: a release runs the well down and
+        # stops (valve shut, well at base); a falloff that sped up when the fracture closed
+        # goes on (a DFIT past closure)
+        return True
+    e10 = min(i50 + int(low[0]), n - 1)
     smooth = opt.smooth_samples + 2 * h
     allow = max(opt.release_levelling * float(t[e10] - t[a]),
                 float(t[min(i50 + smooth, n - 1)] - t[i50]))

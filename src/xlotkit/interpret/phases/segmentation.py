@@ -4,7 +4,8 @@ cycles (docs/field/segmentation.md).
 Every threshold is a fraction or multiple of one of the record's own scales
 (:class:`~xlotkit.interpret.phases.types.RecordScales`): its pressure noise, its pre-test
 level and its pressure span above it, its rate scale, the decline of its own shut-ins and
-the steepness of its own rises; windows are counted in samples.
+the steepness of its own rises; windows are counted in samples of the record's resolution
+(:meth:`SegmentOptions.for_sampling`).
 """
 
 from __future__ import annotations
@@ -152,6 +153,18 @@ def _merge_short(rs, shortest: int) -> list[tuple[str, int, int]]:
     return out
 
 
+def _own_first_step(cum: np.ndarray | None, starts) -> np.ndarray | None:
+    """``cum`` with the step into each of the sample indices ``starts`` moved to the phase
+    that starts there: a phase over ``[i0, i1)`` counts ``cum[i1] - cum[i0]``."""
+    if cum is None:
+        return None
+    out = np.array(cum, float, copy=True)
+    for a in starts:
+        if a > 0:
+            out[a] = cum[a - 1]
+    return out
+
+
 def _make_phase(record: Record, kind: str, i0: int, i1: int, cum_in, cum_out,
                 bits: np.ndarray) -> Phase:
     """A :class:`Phase` over samples ``[i0, i1)`` with volumes, peak, mean rate, evidence."""
@@ -224,6 +237,9 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     if n == 0:
         return Segmentation(phases=(), cycles=(), used_rate=False, notes=("empty record",))
     t = record.t
+    if n > 1:
+        # windows in samples of the record's own resolution: a coarse log counts them in time
+        opt = opt.for_sampling(float(np.median(np.diff(t))), float(t[-1] - t[0]))
     p = np.asarray(record.gauge_pressure(), float)
     if np.any(~np.isfinite(p)):
         # gaps in a pressure series: carry the last reading (the segmentation is coarse)
@@ -346,6 +362,12 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     # totaliser that counts in 0.1 m^3 steps
     pv_volume = cum_rate(t, rate) if used_rate else cum_in
 
+    # a totaliser logs the volume moved since the sample before: the step into the first
+    # sample of a pump phase (or of a flowback / bleed) was pumped (returned) by that phase,
+    # not by the shut-in before it (on a 30 s log that step is a whole sample's pumping)
+    cum_in = _own_first_step(cum_in, [a for kind, a, _ in rs if kind == "pump"])
+    cum_out = _own_first_step(cum_out, [a for kind, a, _ in rs
+                                        if kind in ("flowback", "bleed")])
     phases = [_make_phase(record, kind, a, b, cum_in, cum_out, bits) for kind, a, b in rs]
     phases, groups = _cycle_groups(phases, ps, base, span, band, noise, opt,
                                      pressure_only=not used_rate)
@@ -421,6 +443,12 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
             restart = (phases[k - 1].kind == "shut_in"
                        and phases[k - 1].i1 - phases[k - 1].i0 >= opt.min_phase_samples
                        and amount(ph) >= opt.restart_fraction * g["amount"] > 0)
+            if restart and pressure_only:
+                # without a rate, pumping on from the level the last rise reached, not
+                # fallen from it beyond the noise (a staircase: the pump held at a rate, the
+                # pressure still approaching its level), is the same pressurisation; a
+                # shut-in well pumped again (a held test pressurised further) had leaked off
+                restart = g["peak"] - p_start > opt.noise_multiple * noise
             if not (released or restart):
                 g["pumps"].append(k)
                 g["amount"] += amount(ph)

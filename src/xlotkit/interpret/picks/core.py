@@ -14,10 +14,13 @@ step-rate test, stimulation ...).
 
 * ``ISIP``: every cycle with a pump stop followed by a shut-in, whatever its kind (for a line
   or casing test it is the pressure the system held).
-* The first test cycle: ``LOP`` and ``FBP`` (the breakdown event; the pick reports "not
-  found" when the pressure never fell at an unchanged rate). Later test cycles: ``Pr``
-  (reopening). Every test cycle: ``FPP``; a ``step_rate`` cycle also ``FEP``, the
-  fracture-extension pressure (:mod:`~xlotkit.interpret.picks.steprate`).
+* The first test cycle of each test (:func:`separate_tests`: a test cycle after the well
+  stood idle longer than the test before it lasted opens a new one): ``LOP`` and ``FBP``
+  (the breakdown event; the pick reports "not found" when the pressure never fell at an
+  unchanged rate). Later test cycles: ``Pr`` (reopening). Every test cycle: ``FPP``; a ``step_rate`` cycle also ``FEP``, the
+  fracture-extension pressure (:mod:`~xlotkit.interpret.picks.steprate`), and no ``LOP`` /
+  ``Pr`` (:data:`NO_DEPARTURE_KINDS`: its pressure bends at every rate step, so a departure
+  from the first line is no leak-off).
 * Fracture closure (``FCP``) in test cycles: every shut-in method of
   :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS` when the cycle has a pump stop
   followed by a shut-in, both flowback methods (:mod:`~xlotkit.interpret.picks.flowback`)
@@ -120,6 +123,7 @@ from xlotkit.record import Record
 __all__ = [
     "FCP_METHODS",
     "METHODS",
+    "NO_DEPARTURE_KINDS",
     "PICK_NAMES",
     "SHUTIN_METHOD_NAMES",
     "Consistency",
@@ -128,12 +132,14 @@ __all__ = [
     "PickMethod",
     "PickOptions",
     "RecordPicks",
+    "breakdown_and_reopening",
     "consensus_fcp",
     "consensus_rule",
     "is_test_cycle",
     "pick_cycle",
     "pick_record",
     "reconcile_closures",
+    "separate_tests",
 ]
 
 #: Shut-in closure methods (the keys of :data:`xlotkit.interpret.picks.shutin.SHUTIN_METHODS`).
@@ -147,6 +153,9 @@ TANGENT_METHODS = ("tangent",) + FLOWBACK_METHODS
 #: closure picks. Every other kind -- LOT, XLOT, DFIT / mini-frac, step-rate test,
 #: stimulation, and kinds the segmentation adds later -- is a test cycle.
 NON_FRACTURE_KINDS = ("line_test", "casing_test", "other")
+#: Test-cycle kinds whose pressurisation has no leak-off departure to find: a step-rate
+#: test's pressure bends at every rate step (its pick is the FEP), so no LOP / Pr.
+NO_DEPARTURE_KINDS = ("step_rate",)
 
 
 def is_test_cycle(cycle: Cycle) -> bool:
@@ -765,10 +774,16 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
                           notes=(f"{cycle.kind} cycle: no fracture picks, only the ISIP and "
                                  "the stiffness",))
     picks: list[Pick] = []
-    if previous is None:
-        picks += [press("LOP"), press("FBP")]
+    departure = "Pr" if previous is not None else "LOP"
+    if cycle.kind in NO_DEPARTURE_KINDS:
+        # the pressure bends at every rate step: a departure from the first line is the
+        # next step, not leak-off; the stabilised p-q line's break (FEP) is the pick
+        notes.append(f"{cycle.kind} cycle: no {departure} (the pressure bends at every rate "
+                     "step; the fracture-extension pressure FEP is the pick)")
     else:
-        picks.append(press("Pr"))
+        picks.append(press(departure))
+    if previous is None:
+        picks.append(press("FBP"))
     picks.append(press("FPP"))
     if cycle.kind == "step_rate":
         picks.append(press("FEP"))
@@ -812,8 +827,8 @@ class Consistency:
     fcp_relative_spread : float or None
         ``fcp_spread / fcp_mean``.
     t0 : Pick
-        Tensile strength ``T0 = FBP - Pr`` (FBP of the first test cycle, Pr of the next test
-        cycle that has one) [Pa]; interval ``[FBP.low - Pr.high, FBP.high - Pr.low]``.
+        Tensile strength ``T0 = FBP - Pr`` (FBP of a test's first cycle, Pr of the next cycle
+        of the same test that has one: :func:`breakdown_and_reopening`) [Pa]; interval ``[FBP.low - Pr.high, FBP.high - Pr.low]``.
     stiffness : tuple of (int, float)
         Pressurisation stiffness [Pa/m^3] per cycle where found (all cycle kinds).
     stiffness_slope, stiffness_slope_stderr : float or None
@@ -839,15 +854,52 @@ class Consistency:
     closure: ClosureAgreement | None = None
 
 
+def separate_tests(cycles: Sequence[Cycle]) -> list[list[int]]:
+    """The record's tests: runs of test cycles (indices into ``cycles``) on one fracture.
+
+    A test cycle after the well stood idle for longer than the test before it lasted (from
+    its first cycle's start to its last one's end) opens a new test -- hours between them
+    is another operation (a casing test or FIT before the XLOT, on a gauge left in the
+    hole), not the reopening of the same fracture: its first cycle gets LOP and FBP again.
+    """
+    out: list[list[int]] = []
+    for k, c in enumerate(cycles):
+        if not is_test_cycle(c):
+            continue
+        if out:
+            first, last = cycles[out[-1][0]], cycles[out[-1][-1]]
+            if c.t_start - last.t_end <= max(last.t_end - first.t_start, 0.0):
+                out[-1].append(k)
+                continue
+        out.append([k])
+    return out
+
+
+def breakdown_and_reopening(cycles: Sequence[CyclePicks]) -> tuple[Pick | None, Pick | None]:
+    """FBP and Pr of one test (:func:`separate_tests`): the first test whose first cycle has
+    a breakdown and a later cycle a reopening pressure (else the first test's FBP, no Pr)."""
+    seqs = separate_tests([c.cycle for c in cycles])
+    first_fbp = None
+    for seq in seqs:
+        fbp = cycles[seq[0]].get("FBP")
+        if fbp is None or not fbp.found:
+            continue
+        first_fbp = first_fbp or fbp
+        pr = next((cycles[k].get("Pr") for k in seq[1:] if cycles[k].get("Pr") is not None
+                   and cycles[k].get("Pr").found), None)
+        if pr is not None:
+            return fbp, pr
+    return first_fbp, None
+
+
 def _t0(cycles: Sequence[CyclePicks]) -> Pick:
-    tests = [c for c in cycles if is_test_cycle(c.cycle)]
-    fbp = tests[0].get("FBP") if tests else None
-    if fbp is None or not fbp.found:
-        return Pick.not_found("T0", "FBP-Pr", "no breakdown pressure in the first test cycle")
-    pr = next((c.get("Pr") for c in tests[1:] if c.get("Pr") is not None and c.get("Pr").found),
-              None)
+    fbp, pr = breakdown_and_reopening(cycles)
+    if fbp is None:
+        return Pick.not_found("T0", "FBP-Pr", "no breakdown pressure in the first test cycle "
+                                              "of any test")
     if pr is None:
-        return Pick.not_found("T0", "FBP-Pr", "no reopening pressure in a later cycle")
+        return Pick.not_found("T0", "FBP-Pr", "no reopening pressure in a later cycle of the "
+                                              "same test")
     value = fbp.value - pr.value
     lo = (fbp.low if fbp.low is not None else fbp.value) - (
         pr.high if pr.high is not None else pr.value)
@@ -956,10 +1008,13 @@ def pick_record(record: Record, segmentation: Segmentation | None = None, *,
     out: list[CyclePicks] = []
     previous: CyclePicks | None = None
     cycles = segmentation.cycles
+    opens = {seq[0] for seq in separate_tests(cycles)}
     for k, cyc in enumerate(cycles):
         t_next = cycles[k + 1].t_start if k + 1 < len(cycles) else np.inf
         after = tuple(ph for ph in segmentation.phases
                       if ph.kind == "idle" and cyc.t_end <= ph.t_start < t_next)
+        if k in opens:
+            previous = None  # a new test: LOP and FBP again
         cp = pick_cycle(record, cyc, previous=previous, options=options, after=after)
         out.append(cp)
         if is_test_cycle(cyc):

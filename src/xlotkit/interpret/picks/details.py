@@ -22,6 +22,9 @@ Families
     candidates rejected there (:class:`RejectedCandidate`).
 :class:`FlowbackDetails`
     The two flowback (system stiffness) methods.
+:class:`StepRateDetails` (with :class:`RateStepPoint`)
+    The fracture-extension pressure of a step-rate test: the two lines through the
+    stabilised points.
 :class:`ConsensusDetails`, :class:`T0Details`, :class:`RejectedDetails`, :class:`AtDepthDetails`
     A cycle's consensus closure, the tensile strength, a pick rejected by
     :func:`~xlotkit.interpret.picks.core.reconcile_closures` (its original details kept), a
@@ -53,11 +56,13 @@ __all__ = [
     "LineDetails",
     "PlateauDetails",
     "PressurisationDetails",
+    "RateStepPoint",
     "RejectedCandidate",
     "RejectedDetails",
     "ShutinDepartureDetails",
     "ShutinDetails",
     "SlopeBreakDetails",
+    "StepRateDetails",
     "T0Details",
     "TangentDetails",
 ]
@@ -625,6 +630,43 @@ class FlowbackDetails(Details):
     def contrast(self) -> float | None:
         """Closed / open stiffness ratio of either method."""
         return self.slope_ratio if self.slope_ratio is not None else self.stiffness_ratio
+
+
+# ===================================================================== step-rate
+@dataclass(frozen=True, kw_only=True)
+class RateStepPoint(Details):
+    """One stabilised point of a step-rate test: the step's median rate [m^3/s], its
+    pressure at the end of the step [Pa] and whether it had stabilised (left out of the fit
+    if not)."""
+
+    rate: float
+    pressure: float
+    stable: bool = True
+
+
+@dataclass(frozen=True, kw_only=True)
+class StepRateDetails(Details):
+    """The fracture-extension pressure (FEP) of a step-rate test
+    (:func:`~xlotkit.interpret.picks.steprate.pick_fep`).
+
+    ``steps``: the stabilised points used; ``line_lower`` / ``line_upper``: the lines of
+    pressure [Pa] against rate [m^3/s] through the first ``points_lower`` and the last
+    ``points_upper`` of them; ``q_fep`` [m^3/s] the rate where they meet; ``slope_ratio``
+    upper / lower slope; ``bootstrap`` the breakpoint bootstrap's central range [Pa] and
+    ``bootstrap_found`` the fraction of redraws that found a break. Without a break only
+    ``steps`` is set.
+    """
+
+    steps: tuple[RateStepPoint, ...] = ()
+    line_lower: LineDetails | None = None
+    line_upper: LineDetails | None = None
+    points_lower: int | None = None
+    points_upper: int | None = None
+    q_fep: float | None = None
+    slope_ratio: float | None = None
+    bootstrap: _Range | None = None
+    bootstrap_found: float | None = None
+    interval: IntervalBudget | None = None
 
 
 # ===================================================================== combinations

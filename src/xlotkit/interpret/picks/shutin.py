@@ -26,7 +26,9 @@ sharp, lasting change of slope, which is what closure looks like. Hence:
   boundary" with the reason, in the pick's ``details.rejected`` and its message;
 * a candidate above the ISIP or before the early decline starts is **inside the pump-off
   drop** and rejected with that reason (:func:`_reject_reason`), as is one in the zone or
-  below the decline.
+  below the decline;
+* a user window overrides these automatic rejections (the user chose it): its pick is kept
+  at quality ``poor`` with the reason as a warning in its message (:func:`_kept`).
 
 Methods (``SHUTIN_METHODS``):
 
@@ -253,6 +255,16 @@ def _reject_reason(sh: _Shut, value: float | None, t_pick: float | None = None) 
     if value < float(np.min(sh.p[sh.j0:])) - 3 * sh.sigma:
         return "below the lowest pressure of the analysed decline"
     return None
+
+
+def _kept(pick: Pick, why: str) -> Pick:
+    """A pick from a user window that the automatic checks would reject: kept (the user
+    chose the window, it overrides the automatic rejections), the reason as a warning and
+    the quality at most ``poor``."""
+    return replace(pick, quality="poor" if pick.quality != "none" else pick.quality,
+                   message="; ".join(m for m in (pick.message, f"warning: {why} (kept: the "
+                                                 "user's window overrides the automatic "
+                                                 "rejection)") if m))
 
 
 def _inside(sh: _Shut, value: float | None) -> bool:
@@ -654,8 +666,7 @@ def _straight_line_method(record: Record, cycle: Cycle, method: str, to_x: Calla
     if pick.found:
         why = _reject_reason(sh, pick.value, pick.t)
         if why is not None:
-            pick = Pick.not_found("FCP", method, f"departure at {pick.value / 1e5:.1f} bar "
-                                  f"rejected: {why}", window=pick.window, details=pick.details)
+            pick = _kept(pick, why)
     return _finish(pick, sh), sh, None
 
 
@@ -909,10 +920,13 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
             sh.dt[eb] <= xs <= sh.dt[lb]):
         return _finish(Pick.not_found("FCP", method, "no closure in the record: the tangents do "
                                       "not meet inside the decline", details=details), sh)
-    why = _reject_reason(sh, ys, float(sh.t_s + xs))
-    if why is not None:
-        return _finish(Pick.not_found("FCP", method, f"tangents meet at {ys / 1e5:.1f} bar: "
-                                      f"rejected: {why}", details=details), sh)
+    # the lines are the user's (a window or fixed lines): a rejection becomes a warning
+    why = _reject_reason(sh, ys, float(sh.t_s + xs)) if spans else None
+    if why is None and not spans:
+        why = _reject_reason(sh, ys, float(sh.t_s + xs))
+        if why is not None:
+            return _finish(Pick.not_found("FCP", method, f"tangents meet at {ys / 1e5:.1f} "
+                                          f"bar: rejected: {why}", details=details), sh)
     vals = [ys]
     trial_specs = [(0, 0.1), (0, 0.25), (2, 0.15)] if lines is None else []
     for shift, frac in trial_specs:
@@ -934,7 +948,7 @@ def pick_fcp_tangent(record: Record, cycle: Cycle, *, window: tuple[float, float
     q = quality(min(fe.r2, fl.r2), ys, low, high, min(fe.n, fl.n))
     pick = Pick("FCP", method, float(ys), float(low), float(high), t=float(sh.t_s + xs),
                 window=(float(sh.t[ea]), float(sh.t[lb])), quality=q, details=details)
-    return _finish(pick, sh)
+    return _finish(pick if why is None else _kept(pick, why), sh)
 
 
 # ===================================================================== bilinear (Haimson)
@@ -1010,7 +1024,7 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     _, psm = _derivative_t(sh)
     k = int(np.argmax(psm <= h.x0)) if np.any(psm <= h.x0) else psm.size - 1
     why = _reject_reason(sh, float(h.x0), float(t[k]))
-    if why is not None:
+    if why is not None and window is None:
         return _finish(Pick.not_found("FCP", method, f"closure candidate at {h.x0 / 1e5:.1f} "
                                       f"bar rejected: {why}", details=details), sh)
     q = quality(h.r2, h.x0, low, high, h.n)
@@ -1020,7 +1034,7 @@ def pick_fcp_bilinear(record: Record, cycle: Cycle, *, window: tuple[float, floa
     pick = Pick("FCP", method, float(h.x0), bud.low, bud.high, t=float(t[k]),
                 window=(float(t[0]), float(t[-1])) if window is None else tuple(window),
                 quality=q, details=details, level=bud.level)
-    return _finish(pick, sh)
+    return _finish(pick if why is None else _kept(pick, why), sh)
 
 
 # ===================================================================== compliance (McClure)
@@ -1114,7 +1128,7 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     vals = [v for v in vals if _inside(sh, v)]
     t_pick = float(np.interp(h.x0, G, t))
     why = _reject_reason(sh, value, t_pick)
-    if why is not None:
+    if why is not None and window is None:
         return _finish(Pick.not_found("FCP", method, f"stiffness rise at {value / 1e5:.1f} bar "
                                       f"rejected: {why}", details=details), sh)
     low, high = min(vals), max(vals)
@@ -1127,7 +1141,7 @@ def pick_fcp_compliance(record: Record, cycle: Cycle, *,
     pick = Pick("FCP", method, value, bud.low, bud.high, t=t_pick,
                 window=(float(t[0]), float(t[-1])), quality=q, details=details,
                 level=bud.level)
-    return _finish(pick, sh)
+    return _finish(pick if why is None else _kept(pick, why), sh)
 
 
 # ===================================================================== curves for plots

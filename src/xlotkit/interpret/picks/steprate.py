@@ -38,6 +38,7 @@ from scipy.stats import chi2
 from scipy.stats import f as f_dist
 
 from xlotkit.interpret.phases import Cycle, RateStep, rate_steps
+from xlotkit.interpret.picks.details import LineDetails, RateStepPoint, StepRateDetails
 from xlotkit.interpret.picks.intervals import LEVEL, budget
 from xlotkit.interpret.picks.models import LineFit, intersect
 from xlotkit.interpret.picks.pressurisation import noise_level, quantum
@@ -232,8 +233,7 @@ def pick_fep(record: Record, cycle: Cycle, *, window: tuple[float, float] | None
         return Pick.not_found(name, method, "no break in the stabilised p-q line: two lines "
                               f"fit no better than one (test statistic {stat:.3g} below "
                               f"{crit:.3g} at the {100 * LEVEL:.0f} % level){msg_out}",
-                              details={"steps": [(float(s.rate), float(s.pressure))
-                                                 for s in steps]})
+                              details=StepRateDetails(steps=_points(steps)))
     rng = np.random.default_rng(_SEED)
     draws = p[None, :] + rng.normal(0.0, 1.0, (N_BOOT, q.size)) * sig_eff[None, :]
     boot_arr = _batch_fep(q, draws, sig_eff)
@@ -253,21 +253,23 @@ def pick_fep(record: Record, cycle: Cycle, *, window: tuple[float, float] | None
         quality = "fair"
     else:
         quality = "poor"
-    details = {
-        "steps": [(float(s.rate), float(s.pressure), bool(s.stable)) for s in steps],
-        "lower": {"slope": lo.slope, "intercept": lo.intercept, "points": k},
-        "upper": {"slope": hi.slope, "intercept": hi.intercept, "points": int(q.size - k)},
-        "q_fep": qx,
-        "slope_ratio": ratio,
-        "bootstrap": extra[0][1:] if extra else None,
-        "bootstrap_found": found_frac,
-        "interval": bud,
-    }
+    details = StepRateDetails(
+        steps=_points(steps),
+        line_lower=LineDetails.of(lo), line_upper=LineDetails.of(hi),
+        points_lower=int(k), points_upper=int(q.size - k), q_fep=float(qx),
+        slope_ratio=float(ratio),
+        bootstrap=(float(extra[0][1]), float(extra[0][2])) if extra else None,
+        bootstrap_found=float(found_frac), interval=bud)
     msg = (f"two lines through {q.size} stabilised steps meet at {qx * 6e4:.4g} l/min; "
            f"slope ratio {ratio:.2f}{msg_out}")
     return Pick(name, method, value, bud.low, bud.high, t=float(record.t[steps[k - 1].i1 - 1]),
                 window=(float(record.t[steps[0].i0]), float(record.t[steps[-1].i1 - 1])),
                 quality=quality, message=msg, details=details, level=bud.level)
+
+
+def _points(steps: Sequence[RateStep]) -> tuple[RateStepPoint, ...]:
+    return tuple(RateStepPoint(rate=float(s.rate), pressure=float(s.pressure),
+                               stable=bool(s.stable)) for s in steps)
 
 
 def pick_fep_entry(record, cycle, *, window, tangents, isip) -> Pick:
