@@ -120,6 +120,7 @@ class Probe:
 _FRACTURE_BAND = {"mesh.fracture_band": True}
 _DILATION = {"effects.shear_dilation": True, "rock.dilation_angle": "5 deg"}
 _NOISE = {"output.noise": "0.05 bar"}
+_EXPONENTIAL = {"rock.joint_reference_stress": "5 MPa", "rock.joint_max_closure": "0.1 mm"}
 _EXPANSION = {"completion.expansion": True, "completion.casing_od": "14 in"}
 
 #: dotted key -> how to observe it.
@@ -141,6 +142,7 @@ PROBES: dict[str, Probe] = {
     "mesh.band_element_size": Probe("0.05 m", live=TWO_D, with_=_FRACTURE_BAND),
     "mesh.band_length": Probe("1.4 m", live=TWO_D, with_=_FRACTURE_BAND),
     "mesh.band_strip": Probe(True, live=TWO_D, with_=_FRACTURE_BAND),
+    "mesh.band_centred_wall": Probe(True, live=TWO_D, with_=_FRACTURE_BAND),
     "mesh.jitter": Probe(0.1, live=TWO_D),
     "mesh.seed": Probe(3, live=TWO_D, with_={"mesh.jitter": 0.1}),
     "mesh.file": Probe("walker_mesh.vtu", live=TWO_D,
@@ -161,6 +163,20 @@ PROBES: dict[str, Probe] = {
     "rock.fracture_friction_angle": Probe(
         "10 deg", live=TWO_D, with_={**_FRACTURE_BAND, "effects.fracture_plane": True}),
     "rock.dilation_angle": Probe("10 deg", live=TWO_D, with_=_DILATION),
+    "rock.wall_criterion": Probe("cluster", live=TWO_D),
+    "rock.crack_plane": Probe("edges", live=TWO_D),
+    "rock.closure_law": Probe("exponential", live=TWO_D, also=_EXPONENTIAL),
+    "rock.joint_normal_stiffness": Probe(
+        2e11, live=TWO_D, with_={"rock.closure_law": "barton_bandis",
+                                 "rock.joint_normal_stiffness": 1e11,
+                                 "rock.joint_max_closure": "0.1 mm"}),
+    "rock.joint_max_closure": Probe("0.2 mm", live=TWO_D,
+                                    with_={"rock.closure_law": "exponential", **_EXPONENTIAL}),
+    "rock.joint_reference_stress": Probe("8 MPa", live=TWO_D,
+                                         with_={"rock.closure_law": "exponential",
+                                                **_EXPONENTIAL}),
+    "rock.sealed_aperture": Probe("0.002 mm", live=TWO_D,
+                                  with_={"rock.closure_law": "exponential", **_EXPONENTIAL}),
     "rock.seed": Probe(3, live=TWO_D, with_={"effects.heterogeneity": True}),
     "stresses.sigma_H": Probe("42 MPa"),
     "stresses.sigma_h": Probe("31 MPa"),

@@ -621,12 +621,9 @@ class MDEMEngine:
             out[f"row.{k}"] = np.asarray(v, dtype=float)
         if self._open_hist is not None:
             out["open_hist.open"], out["open_hist.change"] = self._open_hist
-        pred = self.stepper.predictor_history    # what the next step extrapolates from
-        if pred is not None:
-            out["pred.t"], out["pred.x"] = np.array(pred[0]), pred[1]
-        # the linear solver's memory (orderings, the factor it reuses)
-        for k, v in self.stepper.linear_solver.state().items():
-            out[f"linear.{k}"] = v
+        # what the next steps depend on beyond the state (the predictor's last transition,
+        # the linear solver's orderings and factor)
+        out.update(self.stepper.memory())
         scal = {
             "t": st.flow.t, "p_w": st.flow.p_w, "well_extra_volume": st.flow.well_extra_volume,
             "mech_wall_pressure": float(ms.wall_pressure),
@@ -661,11 +658,8 @@ class MDEMEngine:
                           volume_offset=arr["volume_offset"], failure_time=arr["failure_time"],
                           failure_volume=arr["failure_volume"])
         self.stepper.state = st
-        if "pred.x" in arr:
-            self.stepper.predictor_history = (float(arr["pred.t"]), arr["pred.x"])
-        lin = {k[len("linear."):]: v for k, v in arr.items() if k.startswith("linear.")}
-        if lin:
-            self.stepper.linear_solver.restore(lin, self.cm.layout.pattern)
+        self.stepper.restore_memory({k: v for k, v in arr.items()
+                                     if k.startswith(("pred.", "linear."))})
         self.stepper.counters = CoupledCounters(**scal["counters"])
         self._m_intact0 = arr["m_intact0"]
         self._rows = {k: arr[f"row.{k}"].astype(float).tolist() for k in _ROW_KEYS}

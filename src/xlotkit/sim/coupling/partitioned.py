@@ -321,6 +321,19 @@ class WellCoupledStepper:
     # has with the same meaning
     attempt = CoupledStepper.attempt
 
+    def memory(self) -> dict[str, np.ndarray]:
+        """What a checkpoint keeps beyond the state: nothing (every segment step starts a
+        Newton of its own, with no predictor or solver memory carried between steps; the
+        controller's memory is part of :class:`WellCoupledState`)."""
+        return {}
+
+    def restore_memory(self, memory: Mapping[str, np.ndarray]) -> None:
+        """Take back :meth:`memory`: a checkpoint of this stepper holds none."""
+        if memory:
+            raise InputError("the checkpoint holds a monolithic stepper's memory "
+                             f"({', '.join(sorted(memory))[:80]}), not a partitioned run's",
+                             key="checkpoint", expected="a checkpoint of the same coupling")
+
     @property
     def state(self) -> WellCoupledState:
         return self._state

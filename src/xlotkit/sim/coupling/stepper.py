@@ -19,6 +19,7 @@ See docs/coupling.md, "Breakdown into a large well storage".
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
@@ -508,6 +509,26 @@ class CoupledStepper:
     def predictor_history(self, value: tuple[float, np.ndarray] | None) -> None:
         self._transitions = [] if value is None else [
             (float(value[0]), np.array(value[1], dtype=float), self.state)]
+
+    def memory(self) -> dict[str, np.ndarray]:
+        """What the next steps depend on beyond the state, for a checkpoint: the predictor's
+        last transition (``pred.t``, ``pred.x``) and the linear solver's orderings and
+        factor (``linear.*``). :meth:`restore_memory` takes it back."""
+        out: dict[str, np.ndarray] = {}
+        pred = self.predictor_history
+        if pred is not None:
+            out["pred.t"], out["pred.x"] = np.array(pred[0]), pred[1]
+        for k, v in self.linear_solver.state().items():
+            out[f"linear.{k}"] = v
+        return out
+
+    def restore_memory(self, memory: Mapping[str, np.ndarray]) -> None:
+        """Continue with the :meth:`memory` of a checkpoint (after setting :attr:`state`)."""
+        if "pred.x" in memory:
+            self.predictor_history = (float(memory["pred.t"]), memory["pred.x"])
+        lin = {k[len("linear."):]: v for k, v in memory.items() if k.startswith("linear.")}
+        if lin:
+            self.linear_solver.restore(lin, self.model.layout.pattern)
 
     def _extrapolate(self, x: np.ndarray, old: CoupledState, dt: float,
                      st: Structure) -> np.ndarray:
