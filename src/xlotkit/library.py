@@ -67,6 +67,8 @@ __all__ = [
     "evaluate",
     "evaluation_markdown",
     "grew",
+    "method_rows",
+    "methods_markdown",
     "phase_truth",
     "scene_kind",
     "scenes_markdown",
@@ -494,6 +496,9 @@ class CycleCheck:
     growth : (float, float) or None
         The crack's half-length [m] when the shut-in starts and when its pressure falls to
         sigma_h (or at its end), from the model (None: not recorded).
+    notes : dict
+        By method without a kept value: why (the interpreter's rejection reason, or the
+        picker's message, e.g. "no break in the decline").
     """
 
     cycle: int
@@ -508,6 +513,7 @@ class CycleCheck:
     rejected_errors: dict[str, float] = field(default_factory=dict)
     g_diagnosis: str | None = None
     growth: tuple[float, float] | None = None
+    notes: dict[str, str] = field(default_factory=dict)
 
     @property
     def tip_extension(self) -> bool:
@@ -623,6 +629,9 @@ def _judge_cycle(c, rec, truth: dict[str, Any], sh: float, offset: float,
     rejected = {m: (p.details.rejected_value + offset - sh) / sh
                 for m, p in methods.items()
                 if not p.found and isinstance(p.details, RejectedDetails)}
+    # why a method has no value: the rejection's reason, or the picker's own message
+    notes = {m: (p.details.reason if isinstance(p.details, RejectedDetails) else p.message)
+             for m, p in {**methods, "consensus": c.fcp}.items() if not p.found}
     p_end = _shutin_end(rec, c.cycle, offset)
     if p_end is None:
         closure = None
@@ -713,7 +722,8 @@ def _judge_cycle(c, rec, truth: dict[str, Any], sh: float, offset: float,
                      "open (tip extension)")
     return CycleCheck(c.index, p_end, closure, fb_closure, errors, tuple(fails),
                       shutin_judged=judge_shutin, kind=c.kind, outcomes=out,
-                      rejected_errors=rejected, g_diagnosis=diag, growth=growth)
+                      rejected_errors=rejected, g_diagnosis=diag, growth=growth,
+                      notes={m: str(v or "") for m, v in notes.items()})
 
 
 def evaluate(entry: Entry) -> Evaluation:
@@ -850,7 +860,8 @@ def evaluation_markdown(evals: Iterable[Evaluation]) -> str:
     shut-in and a flowback hold a closure, i.e. which rules judged the cycle; whether it
     passed), then one row per scene (what test it is; sigma_h estimate, LOP against the
     model's leak-off, FBP and Pr at depth, T0 = FBP - Pr and sigma_H by Eq. C.19 against
-    the realised values; the scene's own misses)."""
+    the realised values; the scene's own misses), then the per-method tables
+    (:func:`methods_markdown`)."""
     methods = ("flowback_sqrt_p", "flowback_p_v", "tangent", "sqrt_t", "g_function",
                "bilinear", "compliance", "consensus")
     lines = [("| scene | model | cycle | kind | flowback √p–t | flowback p–V | tangent | √t | "
@@ -886,6 +897,95 @@ def evaluation_markdown(evals: Iterable[Evaluation]) -> str:
                      f"{_bar(ev.fbp)} | {_bar(ev.pr)} | {t0 / 1e5:.1f} | "
                      f"{_bar_pct(ev.t0, t0)} | {sH / 1e5:.1f} | {_bar_pct(ev.sigma_H, sH)} | "
                      f"{rules} |")
+    return "\n".join(lines) + "\n\n" + methods_markdown(evals)
+
+
+#: The closure methods of the per-method tables, with their labels.
+_METHODS = (("flowback_sqrt_p", "flowback √p–t"), ("flowback_p_v", "flowback p–V"),
+            ("tangent", "tangent"), ("sqrt_t", "√t"), ("g_function", "G-function"),
+            ("bilinear", "bilinear"), ("compliance", "compliance"),
+            ("consensus", "consensus (record closure)"))
+
+#: How each outcome reads in the per-method table.
+_OUTCOME_TEXT = {"pass": "within tolerance", "fail": "outside tolerance", "miss": "miss",
+                 "rejected": "rejected", "unjudged": "not judged", "none": "no pick"}
+
+
+def _short(note: str, limit: int = 140) -> str:
+    """A note for a table cell: its first sentence, at most ``limit`` characters, with no
+    character that breaks a Markdown table."""
+    note = " ".join(str(note).replace("|", "/").split())
+    first = note.split("; ")[0].split(". ")[0]
+    return first if len(first) <= limit else first[:limit - 1].rstrip() + "…"
+
+
+def method_rows(evals: Iterable[Evaluation]) -> list[dict[str, Any]]:
+    """Every closure method's result in every cycle of every scene: one dict per (scene,
+    cycle, method) with ``scene``, ``cycle``, ``kind``, ``method``, ``outcome`` (one of
+    :data:`OUTCOMES`), ``value_bar`` (the pick at depth, kept or rejected; None without
+    one), ``err_realised`` and ``err_imposed`` (relative error [-] against the realised and
+    the imposed sigma_h; None without a value) and ``note`` (why there is no kept value)."""
+    out = []
+    for ev in evals:
+        sh = ev.realised("sigma_h")
+        imp = float(ev.truth["imposed_bar"]["sigma_h"]) * 1e5
+        for c in ev.cycles:
+            for m, _ in _METHODS:
+                o = c.outcomes.get(m)
+                if o is None:
+                    continue
+                e = c.errors.get(m, c.rejected_errors.get(m))
+                v = None if e is None else sh * (1.0 + e)
+                out.append({"scene": ev.entry.name, "cycle": c.cycle, "kind": c.kind,
+                            "method": m, "outcome": o,
+                            "value_bar": None if v is None else v / 1e5,
+                            "err_realised": e,
+                            "err_imposed": None if v is None else (v - imp) / imp,
+                            "note": "" if m in c.errors else c.notes.get(m, "")})
+    return out
+
+
+def methods_markdown(evals: Iterable[Evaluation]) -> str:
+    """Markdown tables of every closure method against the realised sigma_h: a summary by
+    method (kept picks, their outcomes, the median and largest absolute error against the
+    realised and the median against the imposed sigma_h, misses and rejections), then one
+    row per scene, cycle and method that picked, was rejected or missed (a method with no
+    pick where the record holds nothing for it is counted in the summary only), with the
+    picked value at depth, both errors and, for a miss or a rejection, why."""
+    rows = method_rows(evals)
+    lines = ["| method | kept picks | within tolerance | outside | not judged | misses | "
+             "rejected | no pick | median abs. error vs realised σh | largest | "
+             "median abs. error vs imposed σh |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for m, label in _METHODS:
+        mine = [r for r in rows if r["method"] == m]
+        kept = [r for r in mine if r["outcome"] in ("pass", "fail", "unjudged")]
+        n = {o: sum(r["outcome"] == o for r in mine) for o in OUTCOMES}
+        er = [abs(r["err_realised"]) for r in kept]
+        ei = [abs(r["err_imposed"]) for r in kept]
+
+        def pc(v: float | None) -> str:
+            return "–" if v is None else f"{100 * v:.2f} %"
+
+        lines.append(f"| {label} | {len(kept)} | {n['pass']} | {n['fail']} | "
+                     f"{n['unjudged']} | {n['miss']} | {n['rejected']} | {n['none']} | "
+                     f"{pc(float(np.median(er)) if er else None)} | "
+                     f"{pc(max(er) if er else None)} | "
+                     f"{pc(float(np.median(ei)) if ei else None)} |")
+    lines += ["", "| scene | cycle | kind | method | picked [bar] | vs realised σh | "
+              "vs imposed σh | outcome | why no kept value |",
+              "|---|---:|---|---|---:|---:|---:|---|---|"]
+    labels = dict(_METHODS)
+    for r in rows:
+        if r["outcome"] == "none":
+            continue
+        e, i, v = r["err_realised"], r["err_imposed"], r["value_bar"]
+        lines.append(
+            f"| {r['scene']} | {r['cycle']} | {r['kind'] or '–'} | {labels[r['method']]} | "
+            f"{'–' if v is None else f'{v:.1f}'} | "
+            f"{'–' if e is None else f'{100 * e:+.2f} %'} | "
+            f"{'–' if i is None else f'{100 * i:+.2f} %'} | {_OUTCOME_TEXT[r['outcome']]} | "
+            f"{_short(r['note']) if r['note'] else ''} |")
     return "\n".join(lines) + "\n"
 
 
