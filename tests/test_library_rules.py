@@ -135,3 +135,18 @@ def test_methods_markdown_counts_and_medians():
            "the window |" in md
     assert "| x | 1 | xlot | √t | 312.0 | +4.00 % | +4.35 % | rejected |" in md
     assert "G-function | –" not in md
+
+
+def test_a_scene_without_a_test_cycle_is_a_miss_of_every_method():
+    truth = {"realised_bar": {"sigma_h": 300.0, "sigma_H": 400.0, "tensile_strength": 30.0},
+             "imposed_bar": {"sigma_h": 300.0}}
+    ev = Evaluation(Entry("lot", None), truth, (), None, None, None,
+                    ("no test cycle found in the log",))
+    (row,) = method_rows([ev])
+    assert row["method"] == "all" and row["outcome"] == "miss"
+    md = methods_markdown([ev])
+    assert "| lot | – | – | every method | – | – | – | miss | no test cycle found in the log |" \
+        in md
+    for label in ("flowback √p–t", "G-function", "consensus"):
+        row = next(ln for ln in md.splitlines() if ln.startswith(f"| {label}"))
+        assert row.split(" | ")[5] == "1"                   # the misses column

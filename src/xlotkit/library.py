@@ -929,6 +929,15 @@ def method_rows(evals: Iterable[Evaluation]) -> list[dict[str, Any]]:
     for ev in evals:
         sh = ev.realised("sigma_h")
         imp = float(ev.truth["imposed_bar"]["sigma_h"]) * 1e5
+        if not ev.cycles:
+            # no test cycle: no method ran; one row says so, with how the interpreter read
+            # the record (each cycle's classification)
+            why = "; ".join(ev.failures) or "no test cycle"
+            if ev.interpretation is not None:
+                why += "; " + "; ".join(c.cycle.reason for c in ev.interpretation.picks.cycles)
+            out.append({"scene": ev.entry.name, "cycle": None, "kind": "",
+                        "method": "all", "outcome": "miss", "value_bar": None,
+                        "err_realised": None, "err_imposed": None, "note": why})
         for c in ev.cycles:
             for m, _ in _METHODS:
                 o = c.outcomes.get(m)
@@ -951,7 +960,9 @@ def methods_markdown(evals: Iterable[Evaluation]) -> str:
     realised and the median against the imposed sigma_h, misses and rejections), then one
     row per scene, cycle and method that picked, was rejected or missed (a method with no
     pick where the record holds nothing for it is counted in the summary only), with the
-    picked value at depth, both errors and, for a miss or a rejection, why."""
+    picked value at depth, both errors and, for a miss or a rejection, why. A scene in which
+    the interpreter found no test cycle gets one row ("every method") with how it read the
+    record, and counts as a miss of every method."""
     rows = method_rows(evals)
     lines = ["| method | kept picks | within tolerance | outside | not judged | misses | "
              "rejected | no pick | median abs. error vs realised σh | largest | "
@@ -961,6 +972,8 @@ def methods_markdown(evals: Iterable[Evaluation]) -> str:
         mine = [r for r in rows if r["method"] == m]
         kept = [r for r in mine if r["outcome"] in ("pass", "fail", "unjudged")]
         n = {o: sum(r["outcome"] == o for r in mine) for o in OUTCOMES}
+        # a scene with no test cycle is a miss of every method
+        n["miss"] += sum(r["method"] == "all" for r in rows)
         er = [abs(r["err_realised"]) for r in kept]
         ei = [abs(r["err_imposed"]) for r in kept]
 
@@ -975,17 +988,21 @@ def methods_markdown(evals: Iterable[Evaluation]) -> str:
     lines += ["", "| scene | cycle | kind | method | picked [bar] | vs realised σh | "
               "vs imposed σh | outcome | why no kept value |",
               "|---|---:|---|---|---:|---:|---:|---|---|"]
-    labels = dict(_METHODS)
+    labels = {**dict(_METHODS), "all": "every method"}
     for r in rows:
         if r["outcome"] == "none":
             continue
         e, i, v = r["err_realised"], r["err_imposed"], r["value_bar"]
+        note = r["note"]
+        note = "" if not note else (_short(note) if r["method"] != "all"
+                                    else " ".join(note.replace("|", "/").split()))
         lines.append(
-            f"| {r['scene']} | {r['cycle']} | {r['kind'] or '–'} | {labels[r['method']]} | "
+            f"| {r['scene']} | {r['cycle'] or '–'} | {r['kind'] or '–'} | "
+            f"{labels[r['method']]} | "
             f"{'–' if v is None else f'{v:.1f}'} | "
             f"{'–' if e is None else f'{100 * e:+.2f} %'} | "
             f"{'–' if i is None else f'{100 * i:+.2f} %'} | {_OUTCOME_TEXT[r['outcome']]} | "
-            f"{_short(r['note']) if r['note'] else ''} |")
+            f"{note} |")
     return "\n".join(lines) + "\n"
 
 
