@@ -954,7 +954,7 @@ def method_rows(evals: Iterable[Evaluation]) -> list[dict[str, Any]]:
     return out
 
 
-def methods_markdown(evals: Iterable[Evaluation]) -> str:
+def methods_markdown(evals: Iterable[Evaluation], *, per_pick: bool = True) -> str:
     """Markdown tables of every closure method against the realised sigma_h: a summary by
     method (kept picks, their outcomes, the median and largest absolute error against the
     realised and the median against the imposed sigma_h, misses and rejections), then one
@@ -962,7 +962,7 @@ def methods_markdown(evals: Iterable[Evaluation]) -> str:
     pick where the record holds nothing for it is counted in the summary only), with the
     picked value at depth, both errors and, for a miss or a rejection, why. A scene in which
     the interpreter found no test cycle gets one row ("every method") with how it read the
-    record, and counts as a miss of every method."""
+    record, and counts as a miss of every method. ``per_pick=False``: the summary only."""
     rows = method_rows(evals)
     lines = ["| method | kept picks | within tolerance | outside | not judged | misses | "
              "rejected | no pick | median abs. error vs realised σh | largest | "
@@ -985,6 +985,8 @@ def methods_markdown(evals: Iterable[Evaluation]) -> str:
                      f"{pc(float(np.median(er)) if er else None)} | "
                      f"{pc(max(er) if er else None)} | "
                      f"{pc(float(np.median(ei)) if ei else None)} |")
+    if not per_pick:
+        return "\n".join(lines) + "\n"
     lines += ["", "| scene | cycle | kind | method | picked [bar] | vs realised σh | "
               "vs imposed σh | outcome | why no kept value |",
               "|---|---:|---|---|---:|---:|---:|---|---|"]
