@@ -43,11 +43,15 @@ def scenes():
 
 
 # ----------------------------------------------------------------------------- picks
-#: What the library's rules report in the scenes issue 17 added for what the picks find hard,
-#: pinned (measured on the stored logs; docs/synthetic-library.md, "The hard scenes", says
-#: why each happens): a miss that goes away, or a new one, fails the test until the docs say
-#: why. Every other scene passes every rule.
+#: What the library's rules report, pinned (measured on the stored logs;
+#: docs/synthetic-library.md, "The hard scenes", says why each happens): the scenes issue 17
+#: added for what the picks find hard, and 09, whose first cycle is 23's DFIT followed by a
+#: second one. A miss that goes away, or a new one, fails the test until the docs say why.
+#: Every other scene passes every rule.
 KNOWN_FAILURES: dict[str, tuple[str, ...]] = {
+    # the first shut-in's closure is within 5 % (+1.5 %), but its G-function reads
+    # "pressure-dependent leak-off" while the crack grew 3.2 -> 6.2 m open (as in 23)
+    "09_perm_1e-16_shutin": ("cycle 1: g_function kept a closure",),
     # the first shut-in's break is at the near-wall stress (+8.7 %), not at closure; its
     # G-function reads "height recession" while the crack grew 2.8 -> 4.0 m
     "20_pressure_dependent_leakoff": (
