@@ -45,13 +45,19 @@ def scenes():
 # ----------------------------------------------------------------------------- picks
 #: What the library's rules report, pinned (measured on the stored logs;
 #: docs/synthetic-library.md, "The hard scenes", says why each happens): the scenes issue 17
-#: added for what the picks find hard, and 09, whose first cycle is 23's DFIT followed by a
-#: second one. A miss that goes away, or a new one, fails the test until the docs say why.
+#: added for what the picks find hard; 09, whose first cycle is 23's DFIT followed by a
+#: second one; and 17, the surface log with pipe friction, where the free path's lower
+#: flowback picks and the friction add up past 3 %. A miss that goes away, or a new one,
+#: fails the test until the docs say why.
 #: Every other scene passes every rule.
 KNOWN_FAILURES: dict[str, tuple[str, ...]] = {
     # the first shut-in's closure is within 5 % (+1.5 %), but its G-function reads
     # "pressure-dependent leak-off" while the crack grew 3.2 -> 6.2 m open (as in 23)
     "09_perm_1e-16_shutin": ("cycle 1: g_function kept a closure",),
+    # the flowback of the surface log with friction: -3.4 % (16, the same well without
+    # friction, -2.4 %; the choke return's friction in the 3-1/2 in pipe takes ~1 % off the
+    # surface pressure, and the interpreter corrects hydrostatics only)
+    "17_surface_gauge_friction": ("cycle 1: flowback_sqrt_p -", "cycle 1: flowback_p_v -"),
     # the first shut-in's break is at the near-wall stress (+8.7 %), not at closure; its
     # G-function reads "height recession" while the crack grew 2.8 -> 4.0 m
     "20_pressure_dependent_leakoff": (
@@ -62,7 +68,9 @@ KNOWN_FAILURES: dict[str, tuple[str, ...]] = {
     "22_interface_turning": (
         "cycle 1: flowback_sqrt_p found no closure", "cycle 1: flowback_p_v found no closure",
         "cycle 1: tangent picked closure", "cycle 1: sqrt_t picked closure",
-        "cycle 1: g_function picked closure", "cycle 1: compliance picked closure"),
+        "cycle 1: g_function picked closure", "cycle 1: compliance picked closure",
+        # ... and the crack grew 7.0 -> 8.5 m in that shut-in, diagnosed "undetermined"
+        "cycle 1: g_function kept a closure"),
     # the DFIT's closure is right (+0.5 %), but its G-function reads "pressure-dependent
     # leak-off" in a falloff whose crack grew 3.2 -> 6.2 m while open (tip extension)
     "23_dfit_long_falloff": ("cycle 1: g_function kept a closure",),
@@ -218,8 +226,11 @@ def test_truths_hold_imposed_realised_and_the_command(evals):
         assert mt["sigma_h_min_bar"] <= rea["sigma_h"] <= mt["sigma_h_max_bar"]
         assert rea["sigma_h"] == pytest.approx(imp["sigma_h"], rel=0.015), name
         # the crack runs along sigma_H: on the free path its axis is within 2 deg of it
-        # (measured -1.4 to +1.2 deg; the strip's was 0), inside the 50 m section
-        assert abs(mt["fracture_azimuth_deg"]) < 2.0, name
+        # (measured -1.4 to +1.2 deg; the strip's was 0), inside the 50 m section; with
+        # little anisotropy (02: sigma_H / sigma_h = 1.07) the path is less held: 10.3 deg
+        # measured, within 15
+        lim = 15.0 if imp["sigma_H"] / imp["sigma_h"] < 1.2 else 2.0
+        assert abs(mt["fracture_azimuth_deg"]) < lim, (name, mt["fracture_azimuth_deg"])
         assert mt["fracture_half_length_m"] < 25.0
         # the stress along the crack is the far-field sigma_H less the radial-stress dip
         # near the wall, averaged over the crack: within 1 %, and within 5 % where an
