@@ -110,10 +110,11 @@ def test_picks_against_the_realised_stresses(evals, name):
 #: after them found the crack still open below them, and where it rejected flowback picks
 #: because the shut-in before had closed the crack with stronger evidence (measured on the
 #: stored logs; docs/synthetic-library.md, "Closure picks the interpreter rejects").
-REJECTED_SHUTIN = {("01_standard", 1), ("03_anisotropy_high", 1), ("08_perm_1e-17", 1),
-                   ("10_rate_250", 1), ("16_surface_gauge", 1), ("17_surface_gauge_friction", 1),
+REJECTED_SHUTIN = {("01_standard", 1), ("03_anisotropy_high", 1),
+                   ("05_stress_low_shallow", 1), ("08_perm_1e-17", 1), ("10_rate_250", 1),
+                   ("12_well_small", 1), ("16_surface_gauge", 1), ("17_surface_gauge_friction", 1),
                    ("19_tip_extension", 1), ("19_tip_extension", 2), ("21_shear_dilation", 2)}
-REJECTED_FLOWBACK = {("09_perm_1e-16_shutin", 2), ("16_surface_gauge", 2),
+REJECTED_FLOWBACK = {("09_perm_1e-16_shutin", 2), ("12_well_small", 2), ("16_surface_gauge", 2),
                      ("20_pressure_dependent_leakoff", 2), ("22_interface_turning", 1)}
 FLOWBACK = ("flowback_sqrt_p", "flowback_p_v")
 
