@@ -3,7 +3,8 @@
 #   make test   - build .venv, then run the test suite
 # and for the synthetic library (data/synthetic, docs/synthetic-library.md):
 #   make synthetic  - simulate every library scene again, replacing its log and truth
-#                     (~20 min; `xlotkit library check data/synthetic` then picks the logs)
+#                     (about 1 h: 99-473 s a scene measured on 2 shared cores;
+#                     `xlotkit library check data/synthetic` then picks the logs)
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
