@@ -350,11 +350,26 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     ok = ((nL >= MIN_LINE_POINTS) & (nLL >= MIN_LINE_POINTS) & (nR >= MIN_LINE_POINTS)
           & (G[np.clip(r1 - 1, 0, n - 1)] - G >= 0.6 * w) & (G - G[l2] >= 1.6 * w))
     jump, trend = sR - sL, sL - sLL
+    excess = jump - trend
     with np.errstate(invalid="ignore", divide="ignore"):
-        se = sigma * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
-        score = (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se) / np.abs(sL)
-        rel = np.abs(jump) / np.abs(sL)
+        se = sigma * np.sqrt(1.0 / xR + 4.0 / xL + 1.0 / xLL)
+        z = excess / se
+    zs = z[ok & np.isfinite(z)]
+    if zs.size >= 5:
+        se = se * max(1.0, 1.4826 * float(np.median(np.abs(zs - np.median(zs)))))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # A curvature that ends (the excess against the jump: a decaying transient, the end
+        # of a leak-off hump) is told from a kink only by the old, stricter rule.
+        se_old = sigma * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
+        score = np.where(np.sign(excess) == np.sign(jump),
+                         (np.abs(excess) - 3.0 * se) / np.abs(sL),
+                         (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se_old) / np.abs(sL))
+        rel = np.minimum(np.abs(jump), np.abs(excess)) / np.abs(sL)
     good = ok & np.isfinite(score) & (sL < 0) & (rel >= MIN_SLOPE_CHANGE) & (score > 0)
+    # The slope the new one is judged against in the lasting checks: one line over both
+    # windows before (LL and L), so that an outlying slope of the window just before (weight
+    # two in the excess) does not pass for a lasting change.
+    s2, _, _ = window_slopes(G, p, l2, i + 1)
     if q > 0:
         with np.errstate(invalid="ignore"):
             good &= np.minimum(np.abs(sL), np.abs(sR)) * w >= 3.0 * q
@@ -364,7 +379,7 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     sRR, nRR, _ = window_slopes(G, p, np.minimum(r1, n - 1), r2)
     far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
     with np.errstate(invalid="ignore"):
-        good &= ~far | (np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump))
+        good &= ~far | (np.sign(jump) * (sRR - s2) >= 0.5 * np.abs(jump))
     if confirm is not None:
         c1 = np.searchsorted(G, G + confirm, "right")
         c2 = np.searchsorted(G, G + 2 * confirm, "right")
@@ -380,8 +395,8 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
         sC0, nC0, _ = window_slopes(G, p, i, np.minimum(e1, n))
         seen &= (nC >= MIN_LINE_POINTS) & (nC0 >= MIN_LINE_POINTS)
         with np.errstate(invalid="ignore"):
-            good &= seen & (np.sign(jump) * (sC - sL) >= 0.5 * np.abs(jump)) \
-                & (np.sign(jump) * (sC0 - sL) >= 0.5 * np.abs(jump))
+            good &= seen & (np.sign(jump) * (sC - s2) >= 0.5 * np.abs(jump)) \
+                & (np.sign(jump) * (sC0 - s2) >= 0.5 * np.abs(jump))
     return np.where(good, score, -np.inf), sL, sR
 
 
