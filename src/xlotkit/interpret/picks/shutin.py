@@ -360,10 +360,20 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     with np.errstate(invalid="ignore", divide="ignore"):
         # A curvature that ends (the excess against the jump: a decaying transient, the end
         # of a leak-off hump) is told from a kink only by the old, stricter rule.
-        se_old = sigma * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
+        infl = se / (sigma * np.sqrt(1.0 / xR + 4.0 / xL + 1.0 / xLL))
+        se_old = sigma * infl * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
         score = np.where(np.sign(excess) == np.sign(jump),
                          (np.abs(excess) - 3.0 * se) / np.abs(sL),
                          (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se_old) / np.abs(sL))
+        # A trend against the jump is often a kink one window back seen from after it (the
+        # windows LL | L straddle it): the jump must then beat twice the part of the trend
+        # the noise cannot explain, on its own error.
+        se_t = sigma * infl * np.sqrt(1.0 / xL + 1.0 / xLL)
+        se_j = sigma * infl * np.sqrt(1.0 / xR + 1.0 / xL)
+        against = (np.sign(trend) != np.sign(jump)) & (np.sign(excess) == np.sign(jump))
+        mirror = (np.abs(jump) - 2.0 * np.maximum(np.abs(trend) - 2.0 * se_t, 0.0)
+                  - 3.0 * se_j) / np.abs(sL)
+        score = np.where(against, np.minimum(score, mirror), score)
         rel = np.minimum(np.abs(jump), np.abs(excess)) / np.abs(sL)
     good = ok & np.isfinite(score) & (sL < 0) & (rel >= MIN_SLOPE_CHANGE) & (score > 0)
     # The slope the new one is judged against in the lasting checks: one line over both
