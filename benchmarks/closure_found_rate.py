@@ -59,8 +59,8 @@ def draw(n: int, seed: int, closure: bool, jobs: int) -> StudyResult:
 def closure_rows(res: StudyResult, res_none: StudyResult | None) -> str:
     """Markdown: per closure method, the found rate, coverages, median width and the
     false-find rate on the no-closure declines."""
-    lines = ["| method | cases | found rate | coverage of found | coverage over all | "
-             "median width [bar] | false finds (no closure) |", "|---|---|---|---|---|---|---|"]
+    lines = [("| method | cases | found rate | coverage of found | coverage over all | "
+              "median width [bar] | false finds (no closure) |"), "|---|---|---|---|---|---|---|"]
     rows = [r for r in res.summary() if r.quantity == "FCP"]
     for r in rows:
         ff = "–"
