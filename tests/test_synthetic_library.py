@@ -102,8 +102,10 @@ def test_shutin_breaks_of_a_growing_crack_are_rejected(evals):
                 if m in ("sqrt_t", "g_function"):
                     assert p.details.original.closure_signature == "flattening", (name, m)
             assert abs(c.errors["consensus"]) <= FLOWBACK_RTOL
-    # the first shut-in of the standard scene and of its stress/permeability variants
-    assert {"01_standard", "03_anisotropy_high", "04_stress_high"} <= set(hit), hit
+    # the first shut-in of the standard scene and of its stress/permeability variants (which
+    # others pass the scan's significance is a borderline: 01, 02, 04, 07, 08 since the
+    # issue-19 break scan, 01, 02, 03, 04, 06 before; docs/synthetic-library.md)
+    assert {"01_standard", "04_stress_high", "07_perm_1e-19"} <= set(hit), hit
     assert set(hit.values()) == {1}
 
 
