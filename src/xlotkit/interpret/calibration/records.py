@@ -53,6 +53,15 @@ Leak-off models (``leakoff``):
 ``wall_leak``
     Carter leak-off plus a constant-permeability open-hole wall, ``Q_wall = J (p - p0)``.
 
+*No closure* (``closure=False``, for the false-find rate of the closure picks): a
+**single-compliance decline**. The fracture compliance never leaves the system
+(``C = C_w + C_f0`` throughout, ``S = 1``) and the Carter leak falls smoothly with the
+pressure above the reservoir's, ``Q_leak = kappa dG/dt (p - p0) / (ISIP - p0)`` (with
+``wall_leak`` the wall leak is added): the decline bends gradually towards ``p0`` and
+nothing happens at ``sigma_h``, so it holds no closure to find (``closure_in_data`` is
+False for both cycles). Only ``carter`` and ``wall_leak`` are allowed: the other two
+models change the leak or the compliance at ``sigma_h``.
+
 *Flowback* through a fixed choke: ``Q_choke = zeta sqrt(p_s)``, ``p_s = p - p_hyd`` the
 static surface pressure (the choke law of :mod:`xlotkit.interpret.picks.flowback`).
 
@@ -215,6 +224,8 @@ class ConstructedSpec:
     dt : float
         Sample interval [s].
     seed : int
+    closure : bool
+        False: a single-compliance decline with no closure (module docstring).
     """
 
     depth: float = 2000.0
@@ -245,6 +256,7 @@ class ConstructedSpec:
     resolution: float = 0.0
     dt: float = 1.0
     seed: int = 0
+    closure: bool = True
 
     def __post_init__(self) -> None:
         if self.leakoff not in LEAKOFF_MODELS:
@@ -259,6 +271,9 @@ class ConstructedSpec:
             raise ValueError("need p0 < sigma_h")
         if not 0.0 <= self.transition < 0.2:
             raise ValueError("transition must be a fraction of sigma_h in [0, 0.2)")
+        if not self.closure and self.leakoff not in ("carter", "wall_leak"):
+            raise ValueError(f"leakoff {self.leakoff!r} changes the decline at sigma_h: a "
+                             "record without closure takes 'carter' or 'wall_leak'")
 
     @property
     def p_hyd(self) -> float:
@@ -343,6 +358,7 @@ class _Decline:
         self.choke = choke
         self.w = max(sp.transition_width, 1e-6 * sp.sigma_h)
         isip = sp.isip[cycle]
+        self.isip = isip
         self.net0 = isip - sp.sigma_h
         cw, cf = sp.well_compliance, sp.fracture_compliance
         # kappa: the open-fracture Carter decline reaches sigma_h at G_c.
@@ -353,6 +369,8 @@ class _Decline:
             self.J = sp.leak_parameter * q0 / max(isip - sp.p0, 1.0)
 
     def S(self, p: float) -> float:
+        if not self.sp.closure:
+            return 1.0
         return float(smootherstep((p - (self.sp.sigma_h - 0.5 * self.w)) / self.w))
 
     def compliance(self, p: float) -> float:
@@ -369,6 +387,10 @@ class _Decline:
         # Below closure the leak falls to the fraction lambda and then with the pressure
         # above the reservoir's (the decline ends at p0); blended by S, so smooth.
         below = sp.leak_after * max(p - sp.p0, 0.0) / (sp.sigma_h - sp.p0)
+        if not sp.closure:
+            # One compliance throughout; the leak falls smoothly with the pressure above
+            # the reservoir's (nothing happens at sigma_h).
+            s, below = 0.0, max(p - sp.p0, 0.0) / max(self.isip - sp.p0, 1.0)
         q = self.kappa * _dG_dt(t - self.t_s, self.t_p) * (s + (1.0 - s) * below)
         if sp.leakoff == "pressure_dependent":
             q *= 1.0 + sp.leak_parameter * max(p - sp.sigma_h, 0.0) / self.net0
@@ -517,6 +539,8 @@ def _closure_case(sp: ConstructedSpec, cr: ConstructedRecord, kind: str, t0: flo
                   t1: float, t_s: float, t_p: float) -> tuple[bool, float]:
     """``(closure_in_data, closure_contrast)`` of the phase ``[t0, t1)`` that crosses
     closure (module docstring); ``t_s``, ``t_p``: pump stop and pumping time [s]."""
+    if not sp.closure:
+        return False, math.nan
     t, p = cr.clean["t"], cr.clean["p_bottomhole"]
     w = sp.transition_width
     dec = (t >= t_s + 3.0 * sp.drop_tau) & (t < t1)
@@ -701,7 +725,8 @@ def _segmentation(rec: Record, spans) -> Segmentation:
 # ============================================================================ drawing
 def draw_spec(rng: np.random.Generator, seed: int | None = None, *,
               gauge: str | None = None, flowback: tuple[bool, bool] | None = None,
-              leakoff: str | None = None, transition: float | None = None) -> ConstructedSpec:
+              leakoff: str | None = None, transition: float | None = None,
+              closure: bool = True) -> ConstructedSpec:
     """A random spec from the calibration distribution (keywords fix a draw's factor).
 
     Distribution (each factor independent; ``U`` uniform, ``LU`` log-uniform):
@@ -724,6 +749,9 @@ def draw_spec(rng: np.random.Generator, seed: int | None = None, *,
       surface (noise U(0.05, 0.4) bar, rounded to whole bar), probability 1/2 each;
     * sample interval 1, 2, 3, 5 or 10 s; entry loss U(0, 8) bar, pipe friction U(0, 15)
       bar, pump-stop drop time U(1, 6) s, breakdown relaxation U(5, 30) s.
+
+    ``closure=False`` draws the same distribution for a single-compliance decline with no
+    closure (:class:`ConstructedSpec`; leak-off ``carter`` or ``wall_leak``, 1/2 each).
     """
     u = rng.uniform
     depth = u(500.0, 3000.0)
@@ -739,7 +767,8 @@ def draw_spec(rng: np.random.Generator, seed: int | None = None, *,
     pr = sh + u(0.3, 0.8) * (isip2 - sh)
     cw = math.exp(u(math.log(1.0), math.log(10.0))) * 1e-3 / _BAR
     ratio = math.exp(u(math.log(0.5), math.log(5.0)))
-    model = leakoff or LEAKOFF_MODELS[int(rng.integers(len(LEAKOFF_MODELS)))]
+    models = LEAKOFF_MODELS if closure else ("carter", "wall_leak")
+    model = leakoff or models[int(rng.integers(len(models)))]
     par = {"carter": 0.0, "pressure_dependent": u(1.0, 3.0),
            "height_recession": u(1.0, 3.0), "wall_leak": u(0.2, 0.6)}[model]
     if gauge is None:
@@ -769,7 +798,7 @@ def draw_spec(rng: np.random.Generator, seed: int | None = None, *,
         pipe_friction=u(0.0, 15.0) * _BAR, drop_tau=u(1.0, 6.0), breakdown_tau=u(5.0, 30.0),
         flowback=flowback, flowback_rate=u(5.0, 30.0) * _BAR / 60.0, gauge=gauge,
         noise=noise, resolution=res, dt=dt,
-        seed=int(rng.integers(2**31)) if seed is None else seed)
+        seed=int(rng.integers(2**31)) if seed is None else seed, closure=closure)
 
 
 # ============================================================================ DFIT cases

@@ -332,16 +332,36 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     """Score of a slope break at every sample, for window ``w``.
 
     Three adjacent windows of width ``w`` in G: ``LL`` and ``L`` before the sample, ``R``
-    after. The jump ``s_R - s_L`` must exceed twice the change ``s_L - s_LL`` over the span
-    before (the curvature an open-fracture decline has anyway -- a smooth curve changes its
-    slope by about as much over two equal spans, a kink does so in one) plus three standard
-    errors of the slopes. Windows must hold ``MIN_LINE_POINTS`` samples each and ``R`` at
+    after; the jump is ``s_R - s_L`` and the trend ``s_L - s_LL`` (the curvature an
+    open-fracture decline has anyway: a smooth curve changes its slope by about as much over
+    two equal spans, a kink does so in one). Three readings:
+
+    * the jump goes beyond the trend extrapolated (the excess ``s_R - 2 s_L + s_LL``, the
+      second difference of the window slopes, has the jump's sign): the excess must exceed
+      three of its standard errors. That error is ``sigma sqrt(1/S_R + 4/S_L + 1/S_LL)``
+      inflated by the record's own spread of the standardised excess over all samples
+      (1.4826 MAD, when above 1): a whole-bar staircase along a slow decline, or any other
+      noise correlated over a window, shows there, where the white-noise ``sigma`` would
+      understate it;
+    * ... but the trend runs against the jump: often a kink one window back seen from after
+      it (``LL | L`` straddle it). The jump must also beat twice the part of the trend its
+      noise cannot explain (beyond two standard errors) plus three errors of its own;
+    * the excess runs against the jump (a curvature that ends: the tail of a decaying
+      transient looks like that at every scale near its decay length): the strict rule, the
+      jump beyond twice the whole trend plus three standard errors of the combination.
+
+    The jump and the excess must each be at least :data:`MIN_SLOPE_CHANGE` of ``|s_L|``.
+    Before this rule the jump always had to beat twice the trend: the trend's own noise
+    then counted twice, and weak breaks on whole-bar gauges were missed (issue 19,
+    ``docs/intervals.md``). Windows must hold ``MIN_LINE_POINTS`` samples each and ``R`` at
     least 60 % of its width (the new slope has to last). On pressure quantised in steps of
     ``q`` the pressure must fall by at least ``3 q`` across a window: over less, a window's
     slope depends on where the steps of the staircase fall (errors that are not independent,
     so the standard error understates them).
 
-    Lasting: a window further on (``RR``, to ``2 w`` after the sample) keeps at least half
+    Lasting (judged against ``s_2``, one line over ``LL`` and ``L`` together, so that an
+    outlying slope of ``L`` alone, weighted twice in the excess, does not pass for a lasting
+    change): a window further on (``RR``, to ``2 w`` after the sample) keeps at least half
     the jump; where the data end before it, that passes. With ``confirm`` (a width ``c`` of
     G, the finest scan window) the new slope must also be seen to last inside the data:
     the window from ``c`` to ``2 c`` after the sample (widened to ``MIN_LINE_POINTS``
@@ -362,11 +382,37 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     ok = ((nL >= MIN_LINE_POINTS) & (nLL >= MIN_LINE_POINTS) & (nR >= MIN_LINE_POINTS)
           & (G[np.clip(r1 - 1, 0, n - 1)] - G >= 0.6 * w) & (G - G[l2] >= 1.6 * w))
     jump, trend = sR - sL, sL - sLL
+    excess = jump - trend
     with np.errstate(invalid="ignore", divide="ignore"):
-        se = sigma * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
-        score = (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se) / np.abs(sL)
-        rel = np.abs(jump) / np.abs(sL)
+        z = excess / (sigma * np.sqrt(1.0 / xR + 4.0 / xL + 1.0 / xLL))
+    # The noise as the record's own statistic shows it (correlated errors, a staircase).
+    zs = z[ok & np.isfinite(z)]
+    infl = max(1.0, 1.4826 * float(np.median(np.abs(zs - np.median(zs))))) if zs.size >= 5 \
+        else 1.0
+    sig = sigma * infl
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se = sig * np.sqrt(1.0 / xR + 4.0 / xL + 1.0 / xLL)
+        # A curvature that ends (the excess against the jump: a decaying transient, the end
+        # of a leak-off hump) is told from a kink only by the strict rule.
+        se_old = sig * np.sqrt(1.0 / xR + 1.0 / xL + 4.0 * (1.0 / xL + 1.0 / xLL))
+        score = np.where(np.sign(excess) == np.sign(jump),
+                         (np.abs(excess) - 3.0 * se) / np.abs(sL),
+                         (np.abs(jump) - 2.0 * np.abs(trend) - 3.0 * se_old) / np.abs(sL))
+        # A trend against the jump is often a kink one window back seen from after it (the
+        # windows LL | L straddle it): the jump must then beat twice the part of the trend
+        # the noise cannot explain, on its own error.
+        se_t = sig * np.sqrt(1.0 / xL + 1.0 / xLL)
+        se_j = sig * np.sqrt(1.0 / xR + 1.0 / xL)
+        against = (np.sign(trend) != np.sign(jump)) & (np.sign(excess) == np.sign(jump))
+        mirror = (np.abs(jump) - 2.0 * np.maximum(np.abs(trend) - 2.0 * se_t, 0.0)
+                  - 3.0 * se_j) / np.abs(sL)
+        score = np.where(against, np.minimum(score, mirror), score)
+        rel = np.minimum(np.abs(jump), np.abs(excess)) / np.abs(sL)
     good = ok & np.isfinite(score) & (sL < 0) & (rel >= MIN_SLOPE_CHANGE) & (score > 0)
+    # The slope the new one is judged against in the lasting checks: one line over both
+    # windows before (LL and L), so that an outlying slope of the window just before (weight
+    # two in the excess) does not pass for a lasting change.
+    s2, _, _ = window_slopes(G, p, l2, i + 1)
     if q > 0:
         with np.errstate(invalid="ignore"):
             good &= np.minimum(np.abs(sL), np.abs(sR)) * w >= 3.0 * q
@@ -376,7 +422,7 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
     sRR, nRR, _ = window_slopes(G, p, np.minimum(r1, n - 1), r2)
     far = (nRR >= MIN_LINE_POINTS) & (G[np.clip(r2 - 1, 0, n - 1)] - G >= 1.6 * w)
     with np.errstate(invalid="ignore"):
-        good &= ~far | (np.sign(jump) * (sRR - sL) >= 0.5 * np.abs(jump))
+        good &= ~far | (np.sign(jump) * (sRR - s2) >= 0.5 * np.abs(jump))
     if confirm is not None:
         c1 = np.searchsorted(G, G + confirm, "right")
         c2 = np.searchsorted(G, G + 2 * confirm, "right")
@@ -392,8 +438,8 @@ def _scan_break(G: np.ndarray, p: np.ndarray, w: float, sigma: float, q: float =
         sC0, nC0, _ = window_slopes(G, p, i, np.minimum(e1, n))
         seen &= (nC >= MIN_LINE_POINTS) & (nC0 >= MIN_LINE_POINTS)
         with np.errstate(invalid="ignore"):
-            good &= seen & (np.sign(jump) * (sC - sL) >= 0.5 * np.abs(jump)) \
-                & (np.sign(jump) * (sC0 - sL) >= 0.5 * np.abs(jump))
+            good &= seen & (np.sign(jump) * (sC - s2) >= 0.5 * np.abs(jump)) \
+                & (np.sign(jump) * (sC0 - s2) >= 0.5 * np.abs(jump))
     return np.where(good, score, -np.inf), sL, sR
 
 
