@@ -156,6 +156,33 @@ def test_simulate_writes_the_2d_outputs(tmp_path):
     assert len(list((res.paths["dir"] / "snapshots").glob("*.vtu"))) >= 3
 
 
+def test_effects_not_asked_for_are_not_assembled():
+    """poroelastic off: alpha = 0 and no pressure-coupling entries of intact clusters in
+    the Jacobian's pattern (tests/verification/test_decoupled.py checks the answer); well
+    storage off: no well compliance on top of the open hole's own fluid."""
+    off, _ = build_model(scene_from_dict(_scene_dict(effects={"well_storage": False})))
+    on, _ = build_model(scene_from_dict(_scene_dict(effects={"poroelastic": True})))
+    assert off.biot == 0.0 and not off.layout.biot_blocks
+    assert on.biot > 0.0 and on.layout.biot_blocks
+    nc = off.n_cells
+    intact = np.zeros(nc, dtype=bool)
+    p_off, p_on = off.layout.pattern(intact), on.layout.pattern(intact)
+    assert np.all(p_off.g_slots == -1) and np.all(p_off.gt_slots == -1)
+    free = p_on.g_slots >= 0            # -1 on held (boundary) DOFs only
+    assert free.sum() > 0.9 * free.size and np.array_equal(p_on.gt_slots >= 0, free)
+    # a failed cell brings its (coefficient 1) coupling entries into the pattern
+    one = intact.copy()
+    one[0] = True
+    p1 = off.layout.pattern(one)
+    assert np.array_equal(p1.g_slots[:6] >= 0, free[:6]) and free[:6].any()
+    assert np.all(p1.g_slots[6:] == -1) and np.all(p1.gt_slots[6:] == -1)
+    assert p_off.nnz < p1.nnz < p_on.nnz
+    # well storage off: the well row stores the hole's fluid only (area x h x c_f)
+    assert off.well_compliance == 0.0
+    assert off.well_storage == off.flow.well_storage
+    assert on.well_compliance > 0.0 and on.well_storage > on.flow.well_storage
+
+
 def test_bad_scenes_name_the_key(tmp_path):
     with pytest.raises(InputError, match="coupling"):
         MDEMEngine(scene_from_dict(_scene_dict(coupling="wfd")))

@@ -5,10 +5,13 @@ there) has the blocks ``K`` (cluster tangents), ``G`` (pressure load), ``-f_w``,
 (skeleton volume change), ``dR/dk dk/du`` (crack permeability), the well's volume row and
 the flow Jacobian. Their positions depend only on the mesh, the boundary conditions and
 the set of cells whose crack permeability depends on the displacements (the failed
-clusters). :class:`CoupledLayout` holds, once per model, where every entry of every block
-goes; :meth:`CoupledLayout.pattern` turns that into a CSR structure for one set of failed
-cells (:class:`CoupledPattern`, cached: it changes only when clusters fail), with, for
-every block, the slot of each of its entries in the CSR data array. An evaluation then
+clusters). Without poroelastic coupling of the intact rock (Biot ``alpha = 0``) the ``G``
+and ``Cfu`` entries of intact clusters are zero and are not stored at all: those blocks
+then have columns / rows only for the failed clusters, which carry the fluid pressure on
+their crack faces (coefficient 1) whatever ``alpha`` is. :class:`CoupledLayout` holds, once
+per model, where every entry of every block goes; :meth:`CoupledLayout.pattern` turns that
+into a CSR structure for one set of failed cells (:class:`CoupledPattern`, cached: it
+changes only when clusters fail), with, for every block, the slot of each of its entries in the CSR data array. An evaluation then
 sums the blocks' values into a zeroed data array (:func:`assemble_jacobian`): no sparse
 matrix is built, sorted or checked per Newton iteration, and the linear solver can reuse
 its ordering while the pattern object is the same (:mod:`xlotkit.sim.coupling.newton`).
@@ -158,7 +161,8 @@ class CoupledPattern:
         Cluster tangent blocks, in the order of ``blocks.ravel()`` (``(c, i, j)``).
     g_slots, gt_slots : ndarray (n_c * 6,)
         ``G`` (row: DOF ``i`` of cluster ``c``, column: cell ``c``) and ``Cfu`` (row: cell
-        ``c``, column: DOF ``i``), in the order ``(c, i)``.
+        ``c``, column: DOF ``i``), in the order ``(c, i)``; ``-1`` for the intact cells of
+        a model without Biot coupling (:attr:`CoupledLayout.biot_blocks` False).
     wcol_slots, wrow_slots : ndarray (n_w,)
         The ``-f_w`` column and the well row's ``f_w`` entries, in the order of
         :attr:`CoupledLayout.wall_rows`.
@@ -212,10 +216,13 @@ class CoupledLayout:
         (``m + 1`` x ``m``), in their fixed orders.
     well_row_permeability : bool
         Whether the well row depends on the permeabilities (rate-driven well).
+    biot_blocks : bool
+        Whether intact clusters carry pressure-coupling entries (``G`` and ``Cfu``: Biot
+        ``alpha > 0``). False: only the failed clusters' entries are stored, per pattern.
     """
 
     def __init__(self, dofs, unknown, n_u: int, wall, flow_triplets, permeability_triplets,
-                 well_row_permeability: bool) -> None:
+                 well_row_permeability: bool, biot_blocks: bool = True) -> None:
         dofs = np.asarray(dofs, dtype=np.int64)
         unknown = np.asarray(unknown, dtype=np.int64)
         nc = dofs.shape[0]
@@ -246,16 +253,22 @@ class CoupledLayout:
             "wrow": (np.full(len(self.wall_rows), nu + m, dtype=np.int64), self.wall_rows),
             "flow": (nu + fr, nu + fc),
         }
+        self.biot_blocks = bool(biot_blocks)
         self._keys = {}
         for name, (r, c) in blocks.items():
             ok = (r >= 0) & (c >= 0)
             self._keys[name] = np.where(ok, r * np.int64(n) + c, -1)
-        base = np.concatenate([v[v >= 0] for v in self._keys.values()])
+        # the blocks every pattern stores; without Biot coupling G and Cfu are stored only
+        # for the failed cells of a pattern (inserted with the crack entries)
+        self._fixed = [k for k in self._keys if self.biot_blocks or k not in ("g", "gt")]
+        self._per_cell = [k for k in ("g", "gt") if k not in self._fixed]
+        base = np.concatenate([self._keys[k][self._keys[k] >= 0] for k in self._fixed])
         self._base = np.unique(base)
         # every block's slots in the base structure (shifted when crack entries are
         # inserted)
         self._base_slots = {}
-        for name, k in self._keys.items():
+        for name in self._fixed:
+            k = self._keys[name]
             pos = np.searchsorted(self._base, np.where(k >= 0, k, 0))
             self._base_slots[name] = np.where(k >= 0, pos, -1).astype(np.int64)
         # crack block: entry t of dR/dk (row pr_t, cell pc_t) times DOF k of that cell
@@ -285,7 +298,10 @@ class CoupledLayout:
         base = self._base
         use = cc[self._perm_cell] & self._perm_valid
         ck = np.where(use[:, None], self._crack_keys, -1)
-        extra = np.unique(ck[ck >= 0])
+        # the pressure coupling of the failed cells when it is not in the base
+        cell6 = np.repeat(cc, 6)
+        pk = {name: np.where(cell6, self._keys[name], -1) for name in self._per_cell}
+        extra = np.unique(np.concatenate([ck[ck >= 0]] + [v[v >= 0] for v in pk.values()]))
         # insert the crack entries not already in the base structure (both sorted)
         at = np.searchsorted(base, extra)
         new = extra[~((at < len(base)) & (base[np.minimum(at, len(base) - 1)] == extra))]
@@ -293,6 +309,9 @@ class CoupledLayout:
         moved = np.arange(len(base)) + np.searchsorted(new, base)   # base slot -> slot
 
         def shifted(name):
+            if name in pk:
+                k = pk[name]
+                return np.where(k >= 0, np.searchsorted(keys, np.maximum(k, 0)), -1)
             bs = self._base_slots[name]
             return np.where(bs >= 0, moved[np.maximum(bs, 0)], -1)
 

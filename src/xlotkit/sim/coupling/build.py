@@ -36,11 +36,9 @@ from xlotkit.sim.mesh import FractureBand, Mesh, borehole_mesh, read_mesh
 from xlotkit.sim.scene import Scene
 from xlotkit.sim.well import Column, hydrostatic_bottomhole, well_compliance
 
-__all__ = ["DECOUPLED_BIOT", "RESIDUAL_APERTURE", "build_model", "total_well_compliance",
+__all__ = ["RESIDUAL_APERTURE", "build_model", "total_well_compliance",
            "well_column"]
 
-#: Biot coefficient of intact clusters when ``effects.poroelastic`` is off.
-DECOUPLED_BIOT = 1e-3
 #: Crack residual (closed) hydraulic aperture [m].
 RESIDUAL_APERTURE = 1e-5
 
@@ -128,7 +126,9 @@ def build_model(scene: Scene) -> tuple[CoupledModel, float]:
         boundary = BoundaryConditions("tractions")
     else:
         boundary = None
-    biot = float(rk.biot) if eff.poroelastic else DECOUPLED_BIOT
+    # poroelastic off: the intact skeleton is decoupled from the pore fluid (alpha = 0; the
+    # model then assembles no pressure-coupling blocks for intact clusters)
+    biot = float(rk.biot) if eff.poroelastic else 0.0
     scaling = StrengthScaling(enabled=bool(eff.strength_scaling),
                               reference_area=rk.strength_scaling_reference_area,
                               exponent=rk.strength_scaling_exponent,

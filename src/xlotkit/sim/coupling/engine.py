@@ -20,10 +20,11 @@ Scene -> model (what is assembled; SPEC §2-§6)
   rotated components), pore pressure p0; the borehole starts at the static mud column
   (``completion.initial_pressure`` or the hydrostatic column of the fluid), in equilibrium.
 * ``effects.poroelastic``: when off (default) the intact rock's skeleton is decoupled from its
-  pore fluid (Biot alpha taken as 1e-3 for intact clusters, no grain compressibility), as in
-  the classical hydraulic-fracture models; failed clusters always carry the fluid pressure
-  with coefficient 1 and store the crack volume. When on, alpha = ``rock.biot`` with the
-  grain term of the pore compressibility (docs/coupling.md).
+  pore fluid (Biot alpha = 0 for intact clusters, no grain compressibility), as in the
+  classical hydraulic-fracture models: the coupled Jacobian has no pressure-coupling
+  entries for intact clusters (:mod:`xlotkit.sim.coupling.assembly`); failed clusters
+  always carry the fluid pressure with coefficient 1 and store the crack volume. When on,
+  alpha = ``rock.biot`` with the grain term of the pore compressibility (docs/coupling.md).
 * well storage: ``effects.well_storage`` adds the whole well's compliance (completion and
   fluid, :func:`xlotkit.sim.well.well_compliance`, or ``completion.well_compliance``) on
   top of the segment's own hole volume; the segment is ``geometry.segment_height`` tall, so
@@ -70,7 +71,6 @@ import numpy as np
 from xlotkit import formulas
 from xlotkit.errors import InputError, XlotkitError
 from xlotkit.sim.coupling.build import (
-    DECOUPLED_BIOT,
     RESIDUAL_APERTURE,
     build_model,
     total_well_compliance,
@@ -98,7 +98,7 @@ from xlotkit.sim.well import (
     surface_from_bottomhole,
 )
 
-__all__ = ["DECOUPLED_BIOT", "RESIDUAL_APERTURE", "EventControl", "MDEMEngine", "MDEMResult",
+__all__ = ["RESIDUAL_APERTURE", "EventControl", "MDEMEngine", "MDEMResult",
            "MDEMStepOutcome", "Stepping", "build_model", "total_well_compliance",
            "well_column"]
 

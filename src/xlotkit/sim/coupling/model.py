@@ -493,7 +493,8 @@ class CoupledModel:
         self.layout = CoupledLayout(
             dofs, unknown, self.n_u, self.f_wall, flow.jacobian_triplets,
             flow.permeability_triplets,
-            well_row_permeability=flow.has_well and not flow.well.pressure_controlled)
+            well_row_permeability=flow.has_well and not flow.well.pressure_controlled,
+            biot_blocks=self.biot > 0.0)
         self._wall_rows = self.layout.wall_rows
 
     # ---------------------------------------------------------------- setup

@@ -133,9 +133,10 @@ class RockProperties:
     poisson : float
         Poisson's ratio nu, in [0, 0.5).
     biot : float
-        Biot coefficient alpha in (0, 1] for the deformation of intact rock
-        (``sigma' = sigma - alpha p I``). Failure criteria and failed clusters use the
-        Terzaghi effective stress (coefficient 1), as in the Hubbert-Willis criterion.
+        Biot coefficient alpha in [0, 1] for the deformation of intact rock
+        (``sigma' = sigma - alpha p I``); 0: the intact skeleton is decoupled from its
+        pore fluid (the pore pressure neither loads it nor is changed by its strain).
+        Failure criteria and failed clusters use the Terzaghi effective stress (coefficient 1), as in the Hubbert-Willis criterion.
     tensile_strength : float
         T [Pa], >= 0.
     cohesion : float
@@ -167,7 +168,7 @@ class RockProperties:
         p = "rock"
         _range(self, "young", p, 0.0, None, lo_open=True)
         _range(self, "poisson", p, 0.0, 0.5, hi_open=True)
-        _range(self, "biot", p, 0.0, 1.0, lo_open=True)
+        _range(self, "biot", p, 0.0, 1.0)
         _range(self, "tensile_strength", p, 0.0, None)
         _range(self, "cohesion", p, 0.0, None)
         _range(self, "friction_angle_deg", p, 0.0, 89.0)
