@@ -76,7 +76,7 @@ def _breakdown_dict(**over):
         "fluid": {"density": "1.2 sg"},
         "completion": {"well_compliance": 2e-9, "initial_pressure": "39 MPa"},
         "numerics": {"dt_max": "1 s", "dp_max": "0.5 MPa", "dt_min": 1e-4},
-        "schedule": {"phase": [{"kind": "pump", "rate": "300 l/min", "volume": "0.0050 m3"}]},
+        "schedule": {"phase": [{"kind": "pump", "rate": "300 l/min", "volume": "0.0060 m3"}]},
     }
     for k, v in over.items():
         d[k] = {**d.get(k, {}), **v} if isinstance(v, dict) else v
@@ -372,7 +372,7 @@ TOL = 1e-5           # a tight WFD tolerance: 0.4 kPa at 40 MPa
 
 @pytest.fixture(scope="module")
 def breakdown():
-    """Monolithic and WFD (tolerance TOL) through breakdown and the first ~0.3 s of the
+    """Monolithic and WFD (tolerance TOL) through breakdown and the first ~0.5 s of the
     crack run; every accepted WFD step is recorded with its start state, and the
     monolithic step of the same length from the same segment state is computed beside it
     (the segment with the well's storage on its borehole, i.e. MDEMEngine's step)."""
@@ -419,7 +419,7 @@ def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
         r = e.rows()
         k = int(np.argmax(r["bottomhole_pressure"]))
         # FBP ~40.6 MPa, then the well pressure falls while clusters fail (measured:
-        # 40.62 MPa to 38.14 MPa, 19 clusters, monolithic; 40.65 to 37.32 MPa, 26
+        # 40.62 MPa to 37.46 MPa, 24 clusters, monolithic; 40.65 to 39.31 MPa, 16
         # clusters, WFD: the crack run is step-size dependent, so the two are compared
         # step by step below)
         assert 40.0e6 < r["bottomhole_pressure"][k] < 41.0e6
@@ -430,7 +430,6 @@ def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
 def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
     mono, wfd, pairs = breakdown
     rm = mono.rows()
-    t_first = min(old.t for old, dt, new, r, m in pairs if new.n_failed > 0)
     n_same = 0
     for old, dt, new, r, m in pairs:
         start = abs(old.well_pressure - old.segment_pressure)
@@ -452,14 +451,14 @@ def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
             # the well's storage, so the failure rounds (and the contact references they
             # set) can differ, and a non-smooth contact law can land on another branch
             # from a start a few Pa away. Measured:
-            # through the breakdown burst (0.1 s from the WFD run's first failure) the failed counts
-            # agree to one cluster (measured: 2 of 8 such steps differ by one, up to
-            # 35 kPa); later, in the running crack, a step whose rounds fail 3-4 clusters
-            # in one and none in the other (measured twice), 0.68 MPa apart
-            if old.t <= t_first + 0.1:
-                assert abs(m.state.coupled.n_failed - new.n_failed) <= 1
-            assert dp < 1e6
-    assert n_same >= 0.6 * len(pairs)         # measured 41 of 53
+            # the two stay within one failure round of each other (at most
+            # failures_per_round clusters; measured: 5 of 12 such steps differ, by 1-4
+            # clusters in the breakdown burst, by one later) and within 0.4 MPa after the
+            # step (measured max 0.36 MPa; bound 0.5 MPa, the scene's dp_max)
+            per_round = wfd.stepper.segment.control.failures_per_round
+            assert abs(m.state.coupled.n_failed - new.n_failed) <= per_round
+            assert dp < 0.5e6
+    assert n_same >= 0.6 * len(pairs)         # measured 48 of 60
     # pressurisation: the same BHP as the monolithic run to TOL (both runs' rows before
     # the first failure; linear interpolation of the monolithic run costs < 1 Pa)
     rw = wfd.rows()
@@ -496,7 +495,7 @@ def test_wfc_lags_at_breakdown(breakdown, wfc_breakdown):
     # the segment has broken down, the well keeps pressurising: the controller moves the
     # well's fluid only as the error accumulates (thesis 4.5.3). Measured: the well at
     # 41.11 MPa at the end, 1.31 MPa above the segment (1.54 MPa at most), against the
-    # monolithic run's fall to 38.1 MPa within 0.3 s of its FBP
+    # monolithic run's fall to 37.5 MPa within 0.5 s of its FBP
     assert r["well_pressure"][-1] > r["well_pressure"][first]
     assert r["well_pressure"][-1] > mono.rows()["bottomhole_pressure"].max()
     assert np.max(np.abs(mis[first:])) > 1e6
