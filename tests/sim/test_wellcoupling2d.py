@@ -427,6 +427,22 @@ def test_breakdown_happens_in_the_monolithic_and_wfd_runs(breakdown):
         assert r["failed_clusters"][-1] >= 10
 
 
+def test_a_step_does_not_pump_through_the_initiation_pressure():
+    """The pressure-change rule (numerics.dp_max = 0.5 MPa) bounds the smooth part of a
+    step in which clusters fail: the step that fails the first clusters starts within
+    dp_max of the pressure they fail at. At 1500 l/min from 39 MPa the first step was
+    0.16 s, pumped through initiation (~40.7 MPa) and broke down at its end, 39.95 MPa with
+    8 clusters (measured before the rule); now the breakdown is resolved to dp_max."""
+    e = _run(make_engine(scene_from_dict(_breakdown_dict(schedule={"phase": [
+        {"kind": "pump", "rate": "1500 l/min", "volume": "0.0040 m3"}]}))))
+    r = e.rows()
+    first = int(np.argmax(r["failed_clusters"] > 0))
+    assert first > 1
+    assert (e.truth_events["initiation_pressure"]
+            - r["bottomhole_pressure"][first - 1]) <= 0.5e6 * (1 + 1e-9)
+    assert r["bottomhole_pressure"].max() > 40.0e6
+
+
 def test_wfd_at_tight_tolerance_reproduces_the_monolithic_step(breakdown):
     mono, wfd, pairs = breakdown
     rm = mono.rows()
