@@ -15,13 +15,10 @@ import numpy as np
 import pytest
 from phase_fixtures import (
     LPM,
-    dfit_arrays,
     lumped_log,
-    step_rate_arrays,
-    stimulation_arrays,
     to_record,
 )
-from test_phases import two_cycle_xlot
+from test_phases_units import _arrays
 
 from xlotkit import Record
 from xlotkit.interpret.phases import SegmentOptions, segment
@@ -29,21 +26,6 @@ from xlotkit.interpret.picks.core import pick_record
 from xlotkit.sim.schedule import Pump, Schedule, ShutIn
 
 FACTORS = (1, 2, 5, 10, 30)
-
-
-def _arrays(kind, seed=0, noise=0.2):
-    if kind == "dfit":
-        t, p, q, _ = dfit_arrays(seed=seed, noise_bar=noise)
-        return t, p, q, None
-    if kind == "step_rate":
-        t, p, q, _ = step_rate_arrays(seed=seed, noise_bar=noise)
-        return t, p, q, None
-    if kind == "stimulation":
-        t, p, q, _ = stimulation_arrays(seed=seed, noise_bar=noise)
-        return t, p, q, None
-    b = two_cycle_xlot()
-    p = np.asarray(b.p) + np.random.default_rng(seed).normal(0.0, noise, len(b.p))
-    return np.arange(p.size, dtype=float), p, np.asarray(b.q), np.asarray(b.r)
 
 
 KINDS = {"dfit": ["dfit"], "xlot": ["xlot", "xlot"], "step_rate": ["step_rate"],
