@@ -38,11 +38,33 @@ _RELEASE_WORDS = ("bleed", "bled", "flow back", "flowback", "flow-back", "open",
 
 @dataclass(frozen=True)
 class Release:
-    """A release over samples ``[a, b)`` (from its highest to its lowest point)."""
+    """A release over samples ``[a, b)`` (from its highest to its lowest point).
+
+    ``fraction`` is the part of the pressure above base it takes away; ``acceleration``
+    how many times faster its steepest fall is than the shut-in's decline just before it
+    (None when that was not measured: a release at pump stop, or on a remark alone).
+    """
 
     a: int
     b: int
     evidence: tuple[ReleaseEvidence, ...]
+    fraction: float = 1.0
+    acceleration: float | None = None
+
+    @property
+    def partial(self) -> bool:
+        """Whether the release left most of the pressure in the well (a valve opened and
+        shut again, or a bleed stopped early)."""
+        return self.fraction < 0.5
+
+    def describe(self, t: np.ndarray) -> str:
+        """One line for the segmentation's notes: where, how much and on what evidence."""
+        out = (f"release at t = {t[self.a]:.0f} s ({', '.join(e.value for e in self.evidence)}): "
+               f"takes {100 * self.fraction:.0f} % of the pressure above base")
+        if self.acceleration is not None:
+            out += (f", falling {self.acceleration:.3g} times faster than the shut-in's own "
+                    "decline before it")
+        return out
 
 
 def return_flow(record: Record, free: np.ndarray, rate_scale: float | None,
@@ -200,7 +222,10 @@ def _onset(t, ps, f, pump, a: int, b: int, c0: int, h: int, noise: float,
     lo = max(hi - opt.settle_samples, 0)
     pumped = np.flatnonzero(pump[lo:hi])
     if pumped.size:
+        # right after pump stop the pressure still falls through the pump-off drop: the
+        # line is fitted to the later half of a short shut-in, whose decline goes on
         lo += int(pumped[-1]) + 1
+        lo += min(opt.settle_samples, (hi - lo) // 2)
     if hi - lo >= 3 and np.ptp(t[lo:hi]) > 0:
         s, c = np.polyfit(t[lo:hi], ps[lo:hi], 1)
         i0 = max(lo, min(hi, a))
@@ -233,12 +258,20 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
     ref = np.where(np.isfinite(ref), np.maximum(ref, 0.0), 0.0)
     cand = free & (f > floor) & (f >= opt.acceleration * ref)
     out: list[Release] = []
-    for a, b in runs(bridge(cand, opt.gap_samples) & free):
+    pieces = []
+    for a_run, b_run in runs(bridge(cand, opt.gap_samples) & free):
+        cuts = _reaccelerations(f, floor, a_run, b_run, opt.acceleration)
+        edges = [a_run, *cuts, b_run]
+        pieces += [(x, y, y == b_run) for x, y in zip(edges[:-1], edges[1:])]
+    for a, b, last in pieces:
         if out and a < out[-1].b:
             continue  # a second candidate inside the release just found
         c0 = a
         fmax = float(np.max(f[a:b]))
-        while b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):
+        # the fall ends where its rate drops to a tenth of its top so far (a piece cut off
+        # before a renewed acceleration ends at the cut)
+        while last and b < n and free[b] and f[b] > max(floor[b], 0.1 * fmax):
+            fmax = max(fmax, float(f[b]))
             b += 1
         k = a + int(np.argmax(ps[a:b]))
         a0 = max(k - 2 * h, 0)
@@ -250,8 +283,14 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
             continue
         a = _onset(t, ps, f, pump, a, b, c0, h, noise, opt)
         excess = float(ps[a] - base)
-        if excess <= 0 or ps[a] - ps[b - 1] < opt.bleed_fraction * excess:
+        drop = float(ps[a] - ps[b - 1])
+        if excess <= 0 or drop < max(opt.partial_release_fraction * excess,
+                                     opt.noise_multiple * noise):
             continue
+        # a fall that leaves most of the pressure in the well is a release only when a
+        # valve plainly opened and shut again (below)
+        partial = drop < opt.bleed_fraction * excess
+        fraction = min(drop / excess, 1.0)
         ev: list[ReleaseEvidence] = []
         before = [r for r in pump_runs if r[1] <= a]
         tp = float(t[before[-1][1] - 1] - t[before[-1][0]]) if before else 0.0
@@ -259,29 +298,87 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
         if _levels_off(t, f, a, b, opt, h):
             # leak-off that sped up (the fracture closing stiffens the system) decays
             # towards the formation's pressure; an opened valve empties the well until it
-            # is shut or at base: its fall ends abruptly
+            # is shut or at base: its fall ends abruptly. A partial release is a valve
+            # opened and shut again: without that abrupt end it is none, remark or not
+            if partial:
+                continue
             if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
                 out.append(Release(a, b, (ReleaseEvidence.REMARK,)
                                    + ((ReleaseEvidence.PRESSURE_ONLY,) if pressure_only
-                                      else ())))
+                                      else ()), fraction=fraction))
             continue
         if _remark(record, float(t[max(a - opt.settle_samples, 0)]), float(t[b - 1])):
             ev.append(ReleaseEvidence.REMARK)
         pe = before[-1][1] if before else 0
         s0 = min(opt.settle_samples, (a - pe) // 2)
+        accel = None
+        sudden = False
         if a - g // 2 - max(pe + s0, a - w) >= 3:
             # accelerated past the decline the shut-in had just before the fall (its first
-            # settle_samples, or half of a shorter shut-in, skipped: the pump-stop step)
+            # settle_samples, or half of a shorter shut-in, skipped: the pump-stop step).
+            # Leak-off only slows down (linear in sqrt(t) or G-time at best), so the
+            # median rate over that stretch is more than its extrapolation to the fall
             ref_a = max(float(np.median(f[max(pe + s0, a - w): a - g // 2])), 0.0)
             top = float(np.max(f[a:b]))
             if top > float(floor[a]) and top >= opt.acceleration * ref_a:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
-        elif before:
+                accel = top / ref_a if ref_a > 0 else float("inf")
+                sudden = _abrupt(f, a, b, max(opt.acceleration * ref_a, float(floor[a])),
+                                 opt, h)
+        elif before and not partial:
             if fast and ps[b - 1] - base <= 0.2 * excess:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         if not ev:
             continue
+        if partial and not sudden:
+            # a fall that leaves most of the pressure in the well is a release only when
+            # the shut-in's decline jumped at once to a rate its leak-off cannot explain (a
+            # valve opened); one that speeds up gradually is leak-off changing its course
+            continue
         if pressure_only:
             ev.append(ReleaseEvidence.PRESSURE_ONLY)
-        out.append(Release(a, b, tuple(ev)))
+        out.append(Release(a, b, tuple(ev), fraction=fraction, acceleration=accel))
     return out
+
+
+def _reaccelerations(f: np.ndarray, floor: np.ndarray, a: int, b: int,
+                     acc: float) -> list[int]:
+    """Samples inside the candidate run ``[a, b)`` where the fall speeds up again.
+
+    A run that starts at pump stop (no shut-in decline before it to compare with) takes in
+    the pump-off fall, the shut-in's slowing leak-off after it and, if a valve is opened
+    before the fall rate drops below the noise, the release too. Leak-off only slows down:
+    where the fall rate has slowed ``acc`` times below an earlier top and then rises
+    ``acc`` times above that low (and above the slope's noise ``floor``), the run is cut at
+    the low, so that the release is judged on its own against the decline before it.
+    """
+    cuts: list[int] = []
+    top = -np.inf
+    low, low_i = np.inf, -1
+    for k in range(a, b):
+        v = float(f[k])
+        if low_i >= 0:
+            if v < low:
+                low, low_i = v, k
+            elif v >= acc * max(low, float(floor[k])):
+                cuts.append(low_i)
+                top, low, low_i = v, np.inf, -1
+            continue
+        if v > top:
+            top = v
+        elif top > float(floor[k]) and v <= top / acc:
+            low, low_i = v, k
+    return cuts
+
+
+def _abrupt(f: np.ndarray, a: int, b: int, level: float, opt: SegmentOptions,
+            h: int) -> bool:
+    """Whether the fall rate ``f`` jumps to ``level`` (``acceleration`` times the shut-in's
+    decline before the fall) within the blur of the smoothing and slope windows
+    (``smooth_samples + 2 h``) after the onset ``a``.
+
+    An opened valve or choke takes its flow at once: the decline rate jumps; leak-off sped
+    up by a closing fracture builds up as the fracture's compliance leaves the system.
+    """
+    hit = np.flatnonzero(f[a:b] >= level)
+    return bool(hit.size) and int(hit[0]) <= opt.smooth_samples + 2 * h
