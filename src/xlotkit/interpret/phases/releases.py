@@ -8,12 +8,16 @@ than the decline just before it, and takes away most of the pressure above base,
 unless it dies away like leak-off (or is still going when the record ends: a valve or choke
 runs the well down and stops, leak-off sped up by a closing fracture goes on for as long as
 the falloff does); so is a fall that starts at pump stop and reaches base in a small fraction of the pumping
-time. No fall rate in bar/min is fixed: the reference is always the same record's decline.
+time. A smaller fall (a valve opened and shut again, a bleed stopped early) is a partial
+release when the decline jumps at once -- within the slope's own window -- to ``acceleration``
+times the shut-in's and the fall ends abruptly. No fall rate in bar/min is fixed: the
+reference is always the same record's decline.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -166,6 +170,14 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     it; or, right at pump stop, a fall to within a fifth of the pressure above base in less
     than ``fast_release`` of the pumping time. A fall that dies away
     like leak-off is a release only on a remark.
+
+    A fall taking less than ``bleed_fraction`` (but at least ``partial_release_fraction``)
+    of the pressure above base is a **partial** release only when the shut-in's decline
+    jumped at once to ``acceleration`` times its rate before (:func:`_abrupt`) and the fall
+    ends abruptly (the valve shut again); a remark does not replace that shape. A candidate
+    that runs from pump stop through the shut-in is first cut where its fall rate, having
+    slowed, speeds up again (:func:`_reaccelerations`), so that a valve opened before the
+    leak-off has slowed to the noise is judged against the decline just before it.
     """
     t = record.t
     pump_runs = runs(pump)
@@ -262,7 +274,7 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
     for a_run, b_run in runs(bridge(cand, opt.gap_samples) & free):
         cuts = _reaccelerations(f, floor, a_run, b_run, opt.acceleration)
         edges = [a_run, *cuts, b_run]
-        pieces += [(x, y, y == b_run) for x, y in zip(edges[:-1], edges[1:])]
+        pieces += [(x, y, y == b_run) for x, y in pairwise(edges)]
     for a, b, last in pieces:
         if out and a < out[-1].b:
             continue  # a second candidate inside the release just found
@@ -323,11 +335,9 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
             if top > float(floor[a]) and top >= opt.acceleration * ref_a:
                 ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
                 accel = top / ref_a if ref_a > 0 else float("inf")
-                sudden = _abrupt(f, a, b, max(opt.acceleration * ref_a, float(floor[a])),
-                                 opt, h)
-        elif before and not partial:
-            if fast and ps[b - 1] - base <= 0.2 * excess:
-                ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
+                sudden = _abrupt(f, a, b, ref_a, float(floor[a]), opt.acceleration, h)
+        elif before and not partial and fast and ps[b - 1] - base <= 0.2 * excess:
+            ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         if not ev:
             continue
         if partial and not sudden:
@@ -371,14 +381,26 @@ def _reaccelerations(f: np.ndarray, floor: np.ndarray, a: int, b: int,
     return cuts
 
 
-def _abrupt(f: np.ndarray, a: int, b: int, level: float, opt: SegmentOptions,
+def _abrupt(f: np.ndarray, a: int, b: int, ref: float, floor: float, acc: float,
             h: int) -> bool:
-    """Whether the fall rate ``f`` jumps to ``level`` (``acceleration`` times the shut-in's
-    decline before the fall) within the blur of the smoothing and slope windows
-    (``smooth_samples + 2 h``) after the onset ``a``.
+    """Whether the fall rate ``f`` jumps from the shut-in's decline ``ref`` to ``acc``
+    times it at once: from below ``sqrt(acc) ref`` (the geometric middle) to at least
+    ``acc ref`` (and the slope's noise ``floor``) within the slope's own window,
+    ``2 h + 1`` samples, around the release's onset ``a``.
 
-    An opened valve or choke takes its flow at once: the decline rate jumps; leak-off sped
-    up by a closing fracture builds up as the fracture's compliance leaves the system.
+    An opened valve or choke takes its flow at once, so the slope over ``±h`` samples
+    spreads the jump over its window; leak-off sped up by a closing fracture builds up as
+    the fracture's compliance leaves the system, over more than the slope can resolve (the
+    onset, read where the pressure leaves the decline by the noise, can lag such a gradual
+    speed-up: the jump is timed on the rate itself, from before the onset).
     """
-    hit = np.flatnonzero(f[a:b] >= level)
-    return bool(hit.size) and int(hit[0]) <= opt.smooth_samples + 2 * h
+    hi_level = max(acc * ref, floor)
+    hit = np.flatnonzero(f[a:b] >= hi_level)
+    if not hit.size:
+        return False
+    k_hi = a + int(hit[0])
+    lo0 = max(k_hi - 6 * (2 * h + 1), 0)
+    low = np.flatnonzero(f[lo0:k_hi] <= np.sqrt(acc) * ref)
+    if not low.size:
+        return False
+    return k_hi - (lo0 + int(low[-1])) <= 2 * h + 1

@@ -324,6 +324,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
     for rel in releases:
         a, b = rel.a, rel.b
+        notes.append(rel.describe(t))
         for ev in rel.evidence:
             bits[a:b] |= _BITS[ev]
         if np.mean(returns[a:b]) >= 0.5 or (not used_rate
