@@ -241,6 +241,52 @@ def partial_release_arrays(*, fraction: float | None = 0.15, speedup: float | No
     return np.arange(p.size, dtype=float), p, q, truth
 
 
+def surface_pressurisation_arrays(*, friction_bar: float = 20.0, rise_s: int = 60,
+                                 bend_bar: float = 0.0, fall_bar: float = 0.0,
+                                 past_s: int = 0, early_leak: float = 0.0,
+                                 q_lpm: float = 500.0, seed: int = 6, noise_bar: float = 0.1):
+    """One pressurisation on a surface gauge: a friction step at the pump start, then the
+    well's compression.
+
+    1 s samples, base 0 bar. Idle 120 s; pumped at ``q_lpm``: the gauge reads the pipe
+    friction ``friction_bar`` from the moment the rate is on (reached over 2 samples, the
+    rate ramping up) on top of the compression, which rises by 100 bar over ``rise_s``
+    samples along a line in pumped volume -- bent below it by ``bend_bar`` at the peak over
+    the last quarter of the rise (leak-off: a LOT), or concave from the start with
+    ``early_leak`` (``100 (u + early_leak u (1 - u))``, ``u`` the fraction of the rise: a
+    formation taking fluid from the first litre). At the peak the pressure falls
+    ``fall_bar`` over 2 s and holds while the pump runs on ``past_s`` s (a brittle
+    breakdown; ``past_s = 0``: the pump stops at the peak). At pump stop the friction
+    vanishes; the well leaks off 5 bar over 180 s and is bled to base over 30 s; idle 120 s.
+
+    Returns
+    -------
+    t [s], p [bar], q [l/min], truth dict: ``pump`` (i0, i1), ``friction_bar``,
+    ``net_gain_bar`` (100)
+    """
+    pre = 120
+    u = np.arange(rise_s, dtype=float) / (rise_s - 1)
+    comp = 100.0 * (u + early_leak * u * (1.0 - u))
+    w = np.clip((u - 0.75) / 0.25, 0.0, None)
+    comp = comp - bend_bar * w ** 2
+    if past_s:
+        comp = np.concatenate([comp, comp[-1] - fall_bar * np.array([0.5, 1.0]),
+                               np.full(max(past_s - 2, 0), comp[-1] - fall_bar)])
+    n_pump = comp.size
+    fr = np.full(n_pump, friction_bar)
+    fr[:2] = friction_bar * np.array([0.4, 0.9])
+    last = float(comp[-1])
+    shut = last - 5.0 * np.sqrt(np.arange(1, 181, dtype=float) / 180.0)
+    bleed = float(shut[-1]) * (1.0 - np.arange(1, 31) / 30.0)
+    p = np.concatenate([np.zeros(pre), comp + fr, shut, bleed, np.zeros(120)])
+    if noise_bar:
+        p = p + np.random.default_rng(seed).normal(0.0, noise_bar, p.size)
+    q = np.zeros(p.size)
+    q[pre:pre + n_pump] = q_lpm
+    return (np.arange(p.size, dtype=float), p, q,
+            {"pump": (pre, pre + n_pump), "friction_bar": friction_bar, "net_gain_bar": 100.0})
+
+
 def lumped_log(tmp_path, name, schedule, **scene):
     """Simulate ``schedule`` with the lumped model (the standard scene, ``scene`` overrides),
     write the record with the log writer and read it back as a field log.

@@ -156,7 +156,7 @@ def _levels_off(t: np.ndarray, f: np.ndarray, a: int, b: int, opt: SegmentOption
 
 def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.ndarray,
                   base: float, noise: float, opt: SegmentOptions, *,
-                  pressure_only: bool) -> list[Release]:
+                  pressure_only: bool, returns: np.ndarray | None = None) -> list[Release]:
     """Releases of pressure while the pump is off (module docstring).
 
     A candidate starts where the fall rate exceeds ``acceleration`` times the median fall
@@ -171,8 +171,10 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     than ``fast_release`` of the pumping time. A fall that dies away
     like leak-off is a release only on a remark.
 
+    ``returns``: the samples with returns, when the record logs them (None: it logs none).
     A fall taking less than ``bleed_fraction`` (but at least ``partial_release_fraction``)
-    of the pressure above base is a **partial** release only when the shut-in's decline
+    of the pressure above base is a **partial** release only when, in a record that logs
+    returns, they come back over most of it, and the shut-in's decline
     jumped at once to ``acceleration`` times its rate before (:func:`_abrupt`) and the fall
     ends abruptly (the valve shut again); a remark does not replace that shape. A candidate
     that runs from pump stop through the shut-in is first cut where its fall rate, having
@@ -182,13 +184,13 @@ def find_releases(record: Record, ps: np.ndarray, dpdt: np.ndarray, pump: np.nda
     t = record.t
     pump_runs = runs(pump)
     out = _scan(record, ps, -dpdt, opt.slope_half, pump, pump_runs, base, noise, opt,
-                pressure_only)
+                pressure_only, returns)
     # a slow, controlled bleed hides in the noise of the short slope on a quantised gauge:
     # the same search on the slope over settle_samples, whose noise is smaller
     hl = max(opt.slope_half, opt.settle_samples // 2)
     if hl > opt.slope_half:
         for r in _scan(record, ps, -slope(t, ps, hl), hl, pump, pump_runs, base, noise, opt,
-                       pressure_only):
+                       pressure_only, returns):
             if not any(r.a < o.b and o.a < r.b for o in out):
                 out.append(r)
         out.sort(key=lambda r: r.a)
@@ -250,9 +252,10 @@ def _onset(t, ps, f, pump, a: int, b: int, c0: int, h: int, noise: float,
 
 
 def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
-          pressure_only: bool) -> list[Release]:
+          pressure_only: bool, returns: np.ndarray | None) -> list[Release]:
     """The release search of :func:`find_releases` on the fall rate ``f`` (a slope over
-    ``±h`` samples); the start of each release from :func:`_onset`."""
+    ``±h`` samples); the start of each release from :func:`_onset`. ``returns``: where the
+    record logs fluid coming back (None: it logs no returns)."""
     import pandas as pd
 
     t = record.t
@@ -303,6 +306,10 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
         # valve plainly opened and shut again (below)
         partial = drop < opt.bleed_fraction * excess
         fraction = min(drop / excess, 1.0)
+        if partial and returns is not None and np.mean(returns[a:b]) < 0.5:
+            # a record that logs returns shows a valve opened as returns; a short fall
+            # without them is the well's own (a burst of crack growth in the shut-in)
+            continue
         ev: list[ReleaseEvidence] = []
         before = [r for r in pump_runs if r[1] <= a]
         tp = float(t[before[-1][1] - 1] - t[before[-1][0]]) if before else 0.0
@@ -340,10 +347,11 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
             ev.append(ReleaseEvidence.UNEXPLAINED_DECLINE)
         if not ev:
             continue
-        if partial and not sudden:
+        if partial and not (sudden and _sustained(ps, a, b, opt)):
             # a fall that leaves most of the pressure in the well is a release only when
             # the shut-in's decline jumped at once to a rate its leak-off cannot explain (a
-            # valve opened); one that speeds up gradually is leak-off changing its course
+            # valve opened) and the flow went on; one that speeds up gradually is leak-off
+            # changing its course, one over within the slope's window a step in the well
             continue
         if pressure_only:
             ev.append(ReleaseEvidence.PRESSURE_ONLY)
@@ -404,3 +412,21 @@ def _abrupt(f: np.ndarray, a: int, b: int, ref: float, floor: float, acc: float,
     if not low.size:
         return False
     return k_hi - (lo0 + int(low[-1])) <= 2 * h + 1
+
+
+def _sustained(ps: np.ndarray, a: int, b: int, opt: SegmentOptions) -> bool:
+    """Whether the fall over ``[a, b)`` is a flow sustained for longer than the slope's
+    window: its 10-90 % takes more than ``2 slope_half + 1`` samples.
+
+    Flow out through an opened valve lasts as long as the valve is held open; a fall over
+    within the slope's own window is a step -- an event in the well (a burst of crack
+    growth in the shut-in, the pump-off drop of a pump stop read late), or a valve cycled
+    too briefly to tell from one.
+    """
+    seg = ps[a:b]
+    drop = float(seg[0] - np.min(seg))
+    if drop <= 0:
+        return False
+    f10 = int(np.argmax(seg <= seg[0] - 0.1 * drop))
+    f90 = int(np.argmax(seg <= seg[0] - 0.9 * drop))
+    return f90 - f10 > 2 * opt.slope_half + 1
