@@ -275,7 +275,12 @@ def _scan(record, ps, f, h, pump, pump_runs, base, noise, opt: SegmentOptions,
     out: list[Release] = []
     pieces = []
     for a_run, b_run in runs(bridge(cand, opt.gap_samples) & free):
-        cuts = _reaccelerations(f, floor, a_run, b_run, opt.acceleration)
+        # a run that starts at pump stop has no shut-in decline before it to be judged
+        # against: it is cut where the fall speeds up again. Later in a shut-in the run is
+        # one fall (a valve's first step and the flow it lets go are one release)
+        after_pump = bool(pump[max(a_run - opt.settle_samples, 0):a_run].any())
+        cuts = _reaccelerations(f, floor, a_run, b_run, opt.acceleration) if after_pump \
+            else []
         edges = [a_run, *cuts, b_run]
         pieces += [(x, y, y == b_run) for x, y in pairwise(edges)]
     for a, b, last in pieces:
