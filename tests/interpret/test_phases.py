@@ -406,7 +406,7 @@ def test_ams01_xlot2_gauge_alone_cycle4_release_where_the_surface_record_opens_t
     # XLOT 2, the short cycle at 16:21 (surface clock): 76 s after pump stop the valve is
     # opened and the well flows back to base. The cementing unit logs it (return rate and
     # volume from 16:23:46, its flowback phase from 16:23:44); the downhole gauge alone has
-    # only its pressure, which falls 16 times faster than the shut-in's decline just before.
+    # only its pressure, which falls 17 times faster than the shut-in's decline just before.
     # Before the re-acceleration cut the gauge's shut-in ran on through the whole fall (the
     # candidate fall started at pump stop, where there is no decline to compare with), and
     # the closure was picked where the fall ended (97.5 bar). The surface record is the

@@ -133,7 +133,7 @@ def test_xlot2_gauge_alone_cycle4_closure_is_not_the_valve(picks, gauge_alone):
     # The downhole gauge alone (pressure only). Cycle 4's shut-in used to run on through
     # the valve opening and the fall to base: its closure was picked at the end of that
     # fall (97.5 bar, the consensus of sqrt_t and g_function) with a bilinear break inside
-    # it at 153.9 bar. The shut-in now ends where the valve opens (a decline 16 times the
+    # it at 153.9 bar. The shut-in now ends where the valve opens (a decline 17 times the
     # shut-in's own: a release with that evidence), no shut-in method picks a closure at or
     # after it, and the closure comes from the flowback: where the merged record (surface
     # + gauge, returns logged) puts it, inside that pick's interval.

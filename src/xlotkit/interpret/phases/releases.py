@@ -65,9 +65,11 @@ class Release:
         """One line for the segmentation's notes: where, how much and on what evidence."""
         out = (f"release at t = {t[self.a]:.0f} s ({', '.join(e.value for e in self.evidence)}): "
                f"takes {100 * self.fraction:.0f} % of the pressure above base")
-        if self.acceleration is not None:
+        if self.acceleration is not None and np.isfinite(self.acceleration):
             out += (f", falling {self.acceleration:.3g} times faster than the shut-in's own "
                     "decline before it")
+        elif self.acceleration is not None:
+            out += ", falling from a shut-in that held its pressure before it"
         return out
 
 
