@@ -65,14 +65,21 @@ KNOWN_FAILURES: dict[str, tuple[str, ...]] = {
     "20_pressure_dependent_leakoff": (
         "cycle 1: tangent", "cycle 1: sqrt_t", "cycle 1: g_function +",
         "cycle 1: bilinear", "cycle 1: consensus", "cycle 1: g_function kept a closure"),
+    # the surface log with pipe friction: its first cycle, read as an XLOT since the p-V
+    # gain is counted net of the pump-start friction step (and a linear loading broken at
+    # its peak departs there), gives flowback closures of -3.6 / -3.7 %: the free path's
+    # -2.5 % of its friction-free twin (16) plus the choke return's friction (~1 %)
+    "17_surface_gauge_friction": ("cycle 1: flowback_sqrt_p -", "cycle 1: flowback_p_v -"),
     # the LOT: the crack takes a few litres at pump stop, the p-V line shows no departure,
     # so the interpreter reads the record as an "other" cycle (no test cycle, no LOP)
     "24_lot_before_breakdown": ("no test cycle found in the log", "no LOP picked in a LOT"),
 }
 
 
-#: XLOT scenes whose first cycle the interpreter does not read as a test cycle (pinned)
-MISSED_CYCLES = {"17_surface_gauge_friction"}
+#: XLOT scenes whose first cycle the interpreter does not read as a test cycle (pinned;
+#: 17, the surface log with pipe friction, left it when the p-V gain was counted net of
+#: the pump-start friction step)
+MISSED_CYCLES: set[str] = set()
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -82,10 +89,7 @@ def test_picks_against_the_realised_stresses(evals, name):
     want = KNOWN_FAILURES.get(name, ())
     assert len(got) == len(want) and all(any(g.startswith(w) for g in got) for w in want), got
     if ev.scene_kind == "xlot":
-        # pinned miss: on the surface log with pipe friction (17) the interpreter reads the
-        # first cycle as "other" (its p-V line shows no departure before the pump stops:
-        # the friction step at the pump start takes the line's start), so only the second
-        # cycle is judged; 16, the same well without friction, has both
+        # a scene in MISSED_CYCLES has only its second cycle judged
         want_cycles = 1 if name in MISSED_CYCLES else 2
         assert len(ev.cycles) == want_cycles, "every XLOT scene is a two-cycle test"
     for c in ev.cycles:
