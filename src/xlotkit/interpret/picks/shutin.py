@@ -498,15 +498,20 @@ def _kink_break(G: np.ndarray, p: np.ndarray, t: np.ndarray) -> _Break | None:
     where the local scan finds none (issue 19).
 
     Only where quantisation denies the scan its windows: the scan asks a fall of ``3 q``
-    across a window, and its finest window is ``BREAK_SCALES[0]`` of the G range, so a
-    decline falling by less than ``3 q / BREAK_SCALES[0]`` (100 steps: a whole-bar gauge
-    over less than 100 bar) cannot be resolved at that scale. Elsewhere the scan's
-    windows see the slope, and a smooth, strongly bending decline (tip extension, a
-    pressure transient in a shut-in that ends above closure, simulated to the Pa) is
-    told from closure by its rules, not by a polynomial's misfit. The lines either side
-    are fitted over ``2 w = W`` before and ``w = W / 2`` after the kink."""
+    across a window, and where the decline falls by less over its finest window
+    (``BREAK_SCALES[0]`` of the G range) at most of its samples (the median; a whole-bar
+    gauge on a decline of less than about 100 bar) the scan cannot see the slope there.
+    Elsewhere its windows see the slope, and a smooth, strongly bending decline (tip
+    extension, a pressure transient in a shut-in that ends above closure, simulated to
+    the Pa) is told from closure by its rules, not by a polynomial's misfit. The lines
+    either side are fitted over ``2 w = W`` before and ``w = W / 2`` after the kink."""
     q = quantum(p)
-    if not (q > 0 and float(np.ptp(p)) < 3.0 * q / BREAK_SCALES[0]):
+    if not q > 0:
+        return None
+    w0 = BREAK_SCALES[0] * float(G[-1] - G[0])
+    ahead = G + w0 <= G[-1]
+    fall = p[ahead] - np.interp(G[ahead] + w0, G, p)
+    if not (fall.size and float(np.median(fall)) < 3.0 * q):
         return None
     k = find_kink(G, p, q, min_change=MIN_SLOPE_CHANGE)
     if k is None:
