@@ -42,6 +42,7 @@ from scipy.stats import norm
 
 __all__ = [
     "LEVEL",
+    "TRACE_FRACTION",
     "IntervalBudget",
     "budget",
     "corner_profile",
@@ -96,9 +97,16 @@ def correlation_inflation(resid, max_rho: float = 0.95) -> float:
     return math.sqrt((1.0 + rho) / (1.0 - rho))
 
 
+#: Where a departure run found at three noise levels ends, as a fraction of the detection
+#: threshold: the run is traced out while the departure stays above one noise level of the
+#: average (:func:`transition_span`).
+TRACE_FRACTION = 1.0 / 3.0
+
+
 def transition_span(pressure, res_a, res_b, i_break: int, threshold: float, *,
                     smooth: int = 5, bounds: tuple[int, int] | None = None,
-                    correlation: float = 1.0) -> tuple[float, float, int, int] | None:
+                    correlation: float = 1.0,
+                    trace: float = TRACE_FRACTION) -> tuple[float, float, int, int] | None:
     """Pressure span where the data leaves both fitted lines: a gradual change's extent.
 
     Parameters
@@ -126,6 +134,12 @@ def transition_span(pressure, res_a, res_b, i_break: int, threshold: float, *,
         windows of its two lines (with ``smooth`` samples into each). Beyond it a departure
         from a line is the curvature of the decline that the line's own window holds, not
         the change between the lines.
+    trace : float
+        Fraction of the detection threshold down to which a run, once found, is traced out
+        (hysteresis thresholding): three noise levels decide that a gradual change exists,
+        but a departure that grows from zero crosses them only some way into the change, so
+        its ends lie where the departure falls back to one noise level of the average
+        (``trace = 1/3``). 0 keeps the run at the detection threshold.
 
     Returns
     -------
@@ -163,6 +177,17 @@ def transition_span(pressure, res_a, res_b, i_break: int, threshold: float, *,
     i1 = j
     while i1 < n - 1 and both[i1 + 1]:
         i1 += 1
+    if trace > 0:
+        # Traced out while the samples still leave both lines by one noise level: the
+        # detection threshold places the ends of a gradual departure inside the change.
+        low = (sa > thr * trace) & (sb > thr * trace)
+        if bounds is not None:
+            low[:b0] = False
+            low[b1 + 1:] = False
+        while i0 > 0 and low[i0 - 1]:
+            i0 -= 1
+        while i1 < n - 1 and low[i1 + 1]:
+            i1 += 1
     # The running mean spreads a departure by (smooth - 1) / 2 samples each way: a sharp
     # kink leaves a run of fewer than `smooth` samples (the average straddling it), a gradual
     # change a longer one, trimmed back to where the samples themselves depart.
