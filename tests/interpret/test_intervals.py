@@ -16,7 +16,6 @@ from xlotkit.interpret.calibration.records import (
     smootherstep,
 )
 from xlotkit.interpret.calibration.study import evaluate_record, run_study
-from xlotkit.interpret.picks.core import pick_record
 from xlotkit.interpret.picks.intervals import (
     LEVEL,
     TRACE_FRACTION,
@@ -104,27 +103,6 @@ def test_transition_is_traced_to_where_the_departure_meets_the_noise(seed, monke
     assert detected[3] + 0.3 <= traced[3] <= 6.1
     # In pressure too: the traced span holds the detected one.
     assert traced[0] <= detected[0] and traced[1] >= detected[1]
-
-
-def test_flowback_interval_holds_the_corner_of_a_gradual_closure():
-    """A closure spread over 5 % of sigma_h (15 bar) on a choke flowback: the sqrt(p)-t
-    lines meet 0.6 bar below sigma_h and their window spread stops 0.2 bar short of it
-    (measured 298.24-299.78 bar); the smooth-hinge corner fitted over the tangents' span
-    reaches it (299.32-300.02 bar). The truth is the construction's sigma_h, not a pick."""
-    sp = ConstructedSpec(leakoff="carter", transition=0.05, flowback=(True, False),
-                         gauge="bottomhole", seed=3)
-    cr = construct_record(sp)
-    c = pick_record(cr.record, cr.segmentation).test_cycles[0]
-    p = c.fcp_methods()["flowback_sqrt_p"]
-    assert p.found
-    it = p.details.interval
-    corner = [(a, b) for name, a, b in it.extra if name == "corner fit"]
-    assert len(corner) == 1
-    lo, hi = corner[0]
-    assert lo <= p.value <= hi
-    assert it.windows[1] < sp.sigma_h  # the windows alone miss it ...
-    assert lo <= sp.sigma_h <= hi  # ... the corner holds it
-    assert p.low <= sp.sigma_h <= p.high
 
 
 @pytest.mark.parametrize("width", [0.0, 1.0, 3.0])
@@ -217,15 +195,15 @@ def test_calibration_small_draw():
         sum(o.covered for o in cons if o.case) / r.n_cases)
     assert r.coverage_all <= r.found_rate
     # The found rate and the coverage over all cases the 300-record draws measure (seeds
-    # 2024 and 2025, docs/intervals.md: consensus found 89.2 % and 88.9 %, covering 86.3 %
-    # and 86.1 % of all cases), held to their binomial 1st percentile on this draw's cases
-    # (77: found >= 62 at 0.889, covered >= 59 at 0.861; before the traced transitions and
-    # the flowback corner fit the coverage floor was 57 at 0.839). Observed 66 found, 61
-    # covered (the traced transitions widen intervals this draw already covered).
+    # 2024 and 2025, docs/intervals.md: consensus found 89.2 % and 88.9 %, covering 85.4 %
+    # and 86.0 % of all cases), held to their binomial 1st percentile on this draw's cases
+    # (77: found >= 62 at 0.889, covered >= 58 at 0.854; before the traced transitions the
+    # coverage floor was 57 at 0.839). Observed 66 found, 61 covered (the traced
+    # transitions widen intervals this draw already covered).
     found = sum(o.found for o in cons if o.case)
     assert found >= _binomial_floor(r.n_cases, 0.889), (found, r.n_cases)
     covered = sum(o.covered for o in cons if o.case)
-    assert covered >= _binomial_floor(r.n_cases, 0.861), (covered, r.n_cases)
+    assert covered >= _binomial_floor(r.n_cases, 0.854), (covered, r.n_cases)
     # Deterministic: the same seed gives the same numbers.
     again = run_study(3, seed=11)
     assert [o.value for o in again.outcomes] == [o.value for o in res.outcomes

@@ -285,3 +285,22 @@ def test_the_flowback_open_side_against_the_closed_system_decides_before_the_con
     picks[2] = _flow_pv(276.5, 0.97 * k, 2.7 * k, se=0.05 * k)
     out, _ = reconcile_closures(picks, cyc, closed_stiffness=k, closed_stiffness_stderr=0.02 * k)
     assert [p.found for p in out] == [False, True, True]
+
+
+def test_a_shutin_pick_above_the_flowback_interval_contradicts_it_whatever_its_own_width():
+    # A gradual, bending shut-in decline states a wide interval (its transition traced to
+    # where it meets the noise): 310 bar [296-318] overlaps the flowback's [299.4-301.4], but
+    # its value lies 8.6 bar above everything the flowback admits. The flowback, with the
+    # stronger evidence (x13.7 against a flattening break), rejects it; a shut-in pick whose
+    # value lies inside the flowback's interval (301.0, as wide) is no contradiction.
+    wide = Pick("FCP", "sqrt_t", 310.0 * BAR, 296.0 * BAR, 318.0 * BAR, quality="fair",
+                details=SlopeBreakDetails(x_name="G", closure_signature="flattening",
+                                          slope_ratio=0.5))
+    flow = [_flow("flowback_sqrt_p", 300.4, 13.7), _flow("flowback_p_v", 300.3, 13.8)]
+    assert max(p.high for p in flow) == pytest.approx(301.4 * BAR)
+    out, notes = reconcile_closures([wide, *flow], _pump_shut_flow())
+    assert [p.found for p in out] == [False, True, True]
+    assert "301.4 bar or below" in out[0].message and len(notes) == 1
+    inside = Pick("FCP", "sqrt_t", 301.0 * BAR, 287.0 * BAR, 309.0 * BAR, quality="fair",
+                  details=wide.details)
+    assert reconcile_closures([inside, *flow], _pump_shut_flow()) == ([inside, *flow], [])

@@ -58,8 +58,10 @@ Consensus FCP
 One fracture state between shut-in and flowback
 -----------------------------------------------
 A cycle's shut-in and the flowback that follows it (no pumping between) are one monotonic
-decline, so the fracture closes in at most one of them. When both find a closure and the
-flowback's lies entirely below the shut-in's, they contradict each other: the flowback's
+decline, so the fracture closes in at most one of them. When both find a closure and a
+shut-in pick lies above the top of the flowback's closure interval, they contradict each
+other (the shut-in pick's value is tested, not its interval: a gradual shut-in decline
+states a wide interval that overlaps the flowback's without agreeing with it): the flowback's
 break says the fracture was still open when the shut-in ended, the shut-in's says it had
 closed. :func:`reconcile_closures` keeps the side with the stronger closure evidence and
 turns the other side's contradicting picks into "not found" with the reason (their values
@@ -566,17 +568,18 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
     if not shut or not flow:
         return picks, []
 
-    def lo(p: Pick) -> float:
-        return p.low if p.low is not None else p.value
-
     def hi(p: Pick) -> float:
         return p.high if p.high is not None else p.value
 
-    # Top of the flowback's closure interval, and the shut-in picks entirely above it
+    # Top of the flowback's closure interval, and the shut-in picks whose value lies above
+    # it: the flowback's data put closure below them. (The value, not the shut-in's whole
+    # interval: a gradual or bending shut-in decline states a wide interval, and its
+    # overlap with the flowback's says only that the shut-in alone cannot place closure,
+    # not that its pick agrees with the flowback.)
     f_hi = max(hi(p) for p in flow)
-    above = [lo(p) for p in shut if lo(p) > f_hi]
+    above = [p.value for p in shut if p.value > f_hi]
     if not above:
-        return picks, []              # the two sides overlap: no contradiction
+        return picks, []              # the shut-in's picks lie in the flowback's range
     s_lo = min(above)
     # A flowback method that ran and saw one straight line contradicts the other's break:
     # uncorroborated, the break cannot overrule the shut-in (e.g. a choke or surface-line
@@ -589,7 +592,7 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
     start, measured = ("", "") if contradicted else _open_side_test(
         flow, closed_stiffness, closed_stiffness_stderr)
     if start == "open":
-        losers = {p.method for p in shut if lo(p) > f_hi}
+        losers = {p.method for p in shut if p.value > f_hi}
         why = (f"the flowback that follows finds closure at {f_hi / 1e5:.1f} bar or below and "
                f"started softer than the closed system ({measured}), so the fracture was "
                "still open when the shut-in ended")
@@ -604,7 +607,7 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
                        "stronger evidence of the fracture's compliance leaving, both kept"]
     elif c_flow > c_shut:
         # The flowback saw the fracture open below these: no closure in the shut-in.
-        losers = {p.method for p in shut if lo(p) > f_hi}
+        losers = {p.method for p in shut if p.value > f_hi}
         why = (f"the flowback that follows finds closure at {f_hi / 1e5:.1f} bar or below "
                f"(system stiffness x{c_flow:.3g}), so the fracture was still open when the "
                "shut-in ended")

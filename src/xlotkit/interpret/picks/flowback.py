@@ -91,7 +91,6 @@ from xlotkit.interpret.picks.details import FlowbackDetails, LineDetails
 from xlotkit.interpret.picks.intervals import (
     IntervalBudget,
     budget,
-    corner_profile,
     correlation_inflation,
     find_transition,
 )
@@ -428,14 +427,11 @@ def _fit_width(value: float, se: float, spread: tuple[float, float]) -> tuple[fl
 
 def _flowback_budget(res: _TwoLines, u: np.ndarray, x: np.ndarray, y: np.ndarray,
                      pressure: np.ndarray, value: float, se: float, trials, resolution: float,
-                     noise_floor: float = 0.0, to_pressure=None) -> IntervalBudget:
+                     noise_floor: float = 0.0) -> IntervalBudget:
     """The 90 % interval of a two-line flowback pick (:mod:`~xlotkit.interpret.picks.
     intervals`): the intersection's standard error inflated for correlated residuals, the
     spread over the perturbed windows, the pressure span over which the data leaves both
-    lines (a gradual closure), the range of the corner of a smooth hinge fitted over the
-    tangents' span (:func:`~xlotkit.interpret.picks.intervals.corner_profile`; ``y`` mapped
-    to the record's pressure by ``to_pressure``, identity when None) and the gauge's
-    resolution."""
+    lines (a gradual closure) and the gauge's resolution."""
     (ml, mr) = res.masks
     infl = max(correlation_inflation(y[ml] - res.left(x[ml])),
                correlation_inflation(y[mr] - res.right(x[mr])))
@@ -445,26 +441,8 @@ def _flowback_budget(res: _TwoLines, u: np.ndarray, x: np.ndarray, y: np.ndarray
     span = find_transition(u, x, y, pressure, u0, left, right,
                            noise=max(noise_level(y), noise_floor))
     tr = None if span is None else (span[0], span[1])
-    extra = []
-    # The corner of the two lines over every bend width the data cannot rule out, fitted on
-    # the span both tangents cover (their windows and the gap between them): a closure that
-    # is gradual or whose open side bends (height recession) moves the lines' intersection
-    # off the corner of the asymptotes by more than the windows' spread shows.
-    use = ml | mr
-    xa, xb = float(np.min(x[use])), float(np.max(x[use]))
-    near = (x >= xa) & (x <= xb)
-    hw = 0.5 * (xb - xa)
-    cp = (corner_profile(x[near], y[near], float(res.x), hw, inflation=infl)
-          if near.sum() >= 8 and hw > 0 else None)
-    if cp is not None:
-        to_p = (lambda v: v) if to_pressure is None else to_pressure
-        lo_c, hi_c = sorted((to_p(cp[0]), to_p(cp[1])))
-        # Closure lies inside the flowback's pressures.
-        lo_p, hi_p = float(np.min(pressure)), float(np.max(pressure))
-        extra.append(("corner fit", min(max(lo_c, lo_p), value), max(min(hi_c, hi_p), value)))
     return budget(value, stderr=se, inflation=infl, trials=trials, transition=tr,
-                  resolution=resolution, extra=extra)
-
+                  resolution=resolution)
 
 
 # --------------------------------------------------------------------------- methods
@@ -533,8 +511,7 @@ def _pick_sqrt_p(record: Record, phase: Phase, window, tangents) -> Pick:
     q_c = quantum(pc_k)
     floor = q_c / np.sqrt(12.0) / (2.0 * max(float(np.median(y)), 1.0))
     bud = _flowback_budget(res, tt, tt, y, rec_p, value, se_p, trial_values,
-                           0.5 * max(quantum(rec_p), q_c), floor,
-                           to_pressure=lambda yc: to_record(float(res.x), yc))
+                           0.5 * max(quantum(rec_p), q_c), floor)
     low, high = bud.low, bud.high
     details = replace(
         details, x="t", y="sqrt(choke gauge pressure) [Pa^0.5]",
