@@ -97,7 +97,11 @@ class CoupledControl:
         set of candidates), hence the margin 0.05; at 0.1 they differed by up to 9 (a
         crack-tip toughness margin before the contacts settled), which no margin covers.
         The default cuts the standard scene from 5.80 to 5.2 Newton iterations per step
-        with the same FBP and sigma_h to 1e-8 (docs/benchmarks.md, issue 20).
+        with the same FBP and sigma_h to 1e-8 (docs/benchmarks.md, issue 20). The failed
+        clusters' contact references are set at the iterate they fail at, so the step's
+        result depends on the Newton path to ~``round_rtol`` of the increment there; the
+        partitioned engine's segment, whose response to the inflow its schemes iterate,
+        runs with 0.
     lagged_permeability_rtol : float
         While the mass residual is above this fraction of the mass scale, the Jacobian
         leaves out the aperture dependence of the crack permeability (Picard on ``k``);
