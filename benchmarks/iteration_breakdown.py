@@ -28,8 +28,9 @@ import argparse
 import collections
 import json
 import time
-import tomllib
 from pathlib import Path
+
+import tomllib
 
 HERE = Path(__file__).resolve().parent
 SCENE = HERE / "scene_2d_standard_issue20.toml"
@@ -80,7 +81,7 @@ def run(scene_path: Path, overrides: dict | None = None, newton_control: dict | 
 
     def _fail(self, st, cand, *a, **k):
         flags["after_fail"] = True
-        calls.append({"kind": "fail", "its": 0, "ok": True, "count": int(len(cand))})
+        calls.append({"kind": "fail", "its": 0, "ok": True, "count": len(cand)})
         return orig_fail(self, st, cand, *a, **k)
 
     def _fold(self, *a, **k):
@@ -155,7 +156,8 @@ def summarise(r: dict) -> str:
                  f"Newton iterations {total} (counter {r['counters']['newton_iterations']}); "
                  f"per accepted step {total / max(len(acc), 1):.2f}; CPU {r['cpu_s']:.1f} s; "
                  f"stepper steps {r['counters']['steps']} ({r['counters']['failed_steps']} cut); "
-                 f"FBP {r['truth']['fbp_bar']} bar, realised sigma_h {r['truth']['sigma_h_bar']} bar")
+                 f"FBP {r['truth']['fbp_bar']} bar, "
+                 f"realised sigma_h {r['truth']['sigma_h_bar']} bar")
     # trial outcome classes
     cls = collections.defaultdict(lambda: [0, 0])
     for t in trials:

@@ -89,21 +89,21 @@ class CoupledControl:
         severity, its margin over its strength, at least ``round_margin`` away from 0,
         and the clusters failed in the round ``round_margin`` more severe than the first
         one left), they fail from that iterate and the step is solved again, without
-        converging the round in full. A round with no candidate or a close call is
-        converged in full and checked there, except when no intact cluster is within
-        ``round_margin`` of failing at the loose iterate (then none fails at the
-        converged one either, by the same error bound, and the check is not repeated);
-        the step's last round is always converged in full. ``round_rtol = 0``: every round converged in full. On the standard
-        scene the severities at the first iterate within 1e-2 differ from the converged
-        ones by at most 1.5e-2 of the strength (median 2e-5; 315 solves, none with another
-        set of candidates), hence the margin 0.05; at 0.1 they differed by up to 9 (a
-        crack-tip toughness margin before the contacts settled), which no margin covers.
-        The default cuts the standard scene from 5.80 to 5.2 Newton iterations per step
-        with the same FBP and sigma_h to 1e-8 (docs/benchmarks.md, issue 20). The failed
-        clusters' contact references are set at the iterate they fail at, so the step's
-        result depends on the Newton path to ~``round_rtol`` of the increment there; the
-        partitioned engine's segment, whose response to the inflow its schemes iterate,
-        runs with 0.
+        converging the round in full. A round with a close call is converged in full and
+        checked there; one with no cluster within ``round_margin`` of failing is
+        converged in full and not checked again (none fails at the converged iterate
+        either, by the same error bound). The step's last round is always converged in
+        full. ``round_rtol = 0``: every round converged in full and checked there.
+        On the standard scene the severities at the first iterate within 1e-2 differ
+        from the converged ones by at most 1.5e-2 of the strength (median 2e-5; 315
+        solves, none with another set of candidates), hence the margin 0.05; at 0.1 they
+        differed by up to 9 (a crack-tip toughness margin before the contacts settled),
+        which no margin covers. The default cuts the standard scene from 5.80 to 5.2
+        Newton iterations per step with the same FBP and sigma_h to 1e-8
+        (docs/benchmarks.md, issue 20). The failed clusters' contact references are set
+        at the iterate they fail at, so the step's result depends on the Newton path to
+        ~``round_rtol`` of the increment there; the partitioned engine's segment, whose
+        response to the inflow its schemes iterate, runs with 0.
     lagged_permeability_rtol : float
         While the mass residual is above this fraction of the mass scale, the Jacobian
         leaves out the aperture dependence of the crack permeability (Picard on ``k``);
