@@ -149,6 +149,144 @@ def stimulation_arrays(*, seed=3, noise_bar=0.3):
              "levels": [1000.0 * qq for qq, _ in sched]})
 
 
+def partial_release_arrays(*, fraction: float | None = 0.15, speedup: float | None = None,
+                           base_bar: float = 100.0, q_lpm: float = 300.0, seed: int = 4,
+                           noise_bar: float = 0.1):
+    """One XLOT cycle on a downhole gauge with a valve opened briefly during the shut-in.
+
+    1 s samples. Idle at ``base_bar`` for 300 s; pumped 300 s at ``q_lpm`` (a linear rise
+    at 100 bar/min, bending over at +120 bar, breakdown at +150 bar, propagation at
+    +110 bar); at pump stop the pressure falls 10 bar at once (friction) and leaks off
+    along a line in sqrt(t), 30 bar over 600 s (Carter leak-off: the decline only slows
+    down). 300 s after pump stop a valve is opened: the well drains through it towards base
+    with a 200 s time constant (choke flow, about 20 times the leak-off rate at that time)
+    until it has lost ``fraction`` of the pressure above base, and the valve is shut; the
+    leak-off goes on from the lower level for another 900 s. Finally the well is bled to
+    base (60 s) and stands idle for 300 s. ``fraction=None``: no valve opening (the same
+    cycle with its leak-off alone).
+
+    ``speedup`` replaces the valve by leak-off that speeds up gradually (a fracture closing
+    into a permeable formation): from 300 s after pump stop the decline rate grows
+    smoothly over 150 s to ``speedup`` times the sqrt(t) decline's and stays there
+    until the pressure has lost 15 % of its height, then eases back over 150 s.
+
+    Returns
+    -------
+    t [s], p [bar], q [l/min] (zeros after the pump stops), truth dict: ``pump`` and
+    ``valve`` ((i0, i1): opened, shut), ``drop_bar``, ``excess_bar``
+    """
+    pre, pump_s = 300, 300
+    p = [np.full(pre, base_bar)]
+    tt = np.arange(1, pump_s + 1, dtype=float)
+    rise = base_bar + 100.0 / 60.0 * tt
+    t_lop, t_fbp = 72.0, 72.0 + 2.0 * 30.0 / (100.0 / 60.0)
+    bend = (tt > t_lop) & (tt <= t_fbp)
+    s = (tt[bend] - t_lop) / (t_fbp - t_lop)
+    rise[bend] = base_bar + 120.0 + 30.0 * (1 - (1 - s) ** 2)
+    after = tt > t_fbp
+    rise[after] = base_bar + 110.0 + 40.0 * np.exp(-(tt[after] - t_fbp) / 15.0)
+    p.append(rise)
+    p0 = rise[-1] - 10.0
+    a_sqrt = 30.0 / np.sqrt(600.0)  # bar / sqrt(s)
+    t_open = 300
+    shut = [p0 - a_sqrt * np.sqrt(np.arange(1, t_open + 1, dtype=float))]
+    level = float(shut[0][-1])
+    truth = {"pump": (pre, pre + pump_s), "excess_bar": level - base_bar}
+    i_open = pre + pump_s + t_open
+    if fraction is not None:
+        # choke flow towards base: d(p - base)/dt = -(p - base) / 200 s
+        n_open = int(np.ceil(-200.0 * np.log(1.0 - fraction)))
+        k = np.arange(1, n_open + 1, dtype=float)
+        shut.append(base_bar + (level - base_bar) * np.exp(-k / 200.0))
+        truth["valve"] = (i_open, i_open + n_open)
+        truth["drop_bar"] = level - float(shut[-1][-1])
+    elif speedup is not None:
+        # the decline rate eases up to `speedup` times the leak-off's over 150 s, holds
+        # until 15 % of the height is gone, eases back over 150 s
+        ramp = 150
+        rates, pp, j = [], level, 0
+        target = level - 0.15 * (level - base_bar)
+        while True:
+            tau = t_open + j + 1
+            r0 = a_sqrt / (2.0 * np.sqrt(tau))
+            w = min(1.0, (j + 1) / ramp)
+            up = 1.0 + (speedup - 1.0) * (3 * w ** 2 - 2 * w ** 3)
+            pp -= r0 * up
+            rates.append(pp)
+            j += 1
+            if pp <= target:
+                break
+        for m in range(1, ramp + 1):
+            tau = t_open + j + 1
+            w = 1.0 - m / ramp
+            pp -= a_sqrt / (2.0 * np.sqrt(tau)) * (1.0 + (speedup - 1.0)
+                                                    * (3 * w ** 2 - 2 * w ** 3))
+            rates.append(pp)
+            j += 1
+        shut.append(np.array(rates))
+        truth["speedup"] = (i_open, i_open + j)
+    lvl = float(shut[-1][-1])
+    t_done = t_open + sum(x.size for x in shut[1:])
+    k = np.arange(1, 901, dtype=float)
+    shut.append(lvl - a_sqrt * (np.sqrt(t_done + k) - np.sqrt(t_done)))
+    p += shut
+    last = float(shut[-1][-1])
+    p.append(last + (base_bar - last) * np.arange(1, 61) / 60.0)
+    p.append(np.full(300, base_bar))
+    p = np.concatenate(p)
+    if noise_bar:
+        p = p + np.random.default_rng(seed).normal(0.0, noise_bar, p.size)
+    q = np.zeros(p.size)
+    q[pre:pre + pump_s] = q_lpm
+    return np.arange(p.size, dtype=float), p, q, truth
+
+
+def surface_pressurisation_arrays(*, friction_bar: float = 20.0, rise_s: int = 60,
+                                 bend_bar: float = 0.0, fall_bar: float = 0.0,
+                                 past_s: int = 0, early_leak: float = 0.0,
+                                 q_lpm: float = 500.0, seed: int = 6, noise_bar: float = 0.1):
+    """One pressurisation on a surface gauge: a friction step at the pump start, then the
+    well's compression.
+
+    1 s samples, base 0 bar. Idle 120 s; pumped at ``q_lpm``: the gauge reads the pipe
+    friction ``friction_bar`` from the moment the rate is on (reached over 2 samples, the
+    rate ramping up) on top of the compression, which rises by 100 bar over ``rise_s``
+    samples along a line in pumped volume -- bent below it by ``bend_bar`` at the peak over
+    the last quarter of the rise (leak-off: a LOT), or concave from the start with
+    ``early_leak`` (``100 (u + early_leak u (1 - u))``, ``u`` the fraction of the rise: a
+    formation taking fluid from the first litre). At the peak the pressure falls
+    ``fall_bar`` over 2 s and holds while the pump runs on ``past_s`` s (a brittle
+    breakdown; ``past_s = 0``: the pump stops at the peak). At pump stop the friction
+    vanishes; the well leaks off 5 bar over 180 s and is bled to base over 30 s; idle 120 s.
+
+    Returns
+    -------
+    t [s], p [bar], q [l/min], truth dict: ``pump`` (i0, i1), ``friction_bar``,
+    ``net_gain_bar`` (100)
+    """
+    pre = 120
+    u = np.arange(rise_s, dtype=float) / (rise_s - 1)
+    comp = 100.0 * (u + early_leak * u * (1.0 - u))
+    w = np.clip((u - 0.75) / 0.25, 0.0, None)
+    comp = comp - bend_bar * w ** 2
+    if past_s:
+        comp = np.concatenate([comp, comp[-1] - fall_bar * np.array([0.5, 1.0]),
+                               np.full(max(past_s - 2, 0), comp[-1] - fall_bar)])
+    n_pump = comp.size
+    fr = np.full(n_pump, friction_bar)
+    fr[:2] = friction_bar * np.array([0.4, 0.9])
+    last = float(comp[-1])
+    shut = last - 5.0 * np.sqrt(np.arange(1, 181, dtype=float) / 180.0)
+    bleed = float(shut[-1]) * (1.0 - np.arange(1, 31) / 30.0)
+    p = np.concatenate([np.zeros(pre), comp + fr, shut, bleed, np.zeros(120)])
+    if noise_bar:
+        p = p + np.random.default_rng(seed).normal(0.0, noise_bar, p.size)
+    q = np.zeros(p.size)
+    q[pre:pre + n_pump] = q_lpm
+    return (np.arange(p.size, dtype=float), p, q,
+            {"pump": (pre, pre + n_pump), "friction_bar": friction_bar, "net_gain_bar": 100.0})
+
+
 def lumped_log(tmp_path, name, schedule, **scene):
     """Simulate ``schedule`` with the lumped model (the standard scene, ``scene`` overrides),
     write the record with the log writer and read it back as a field log.

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from xlotkit import InputError, PressureReference, Record
-from xlotkit.interpret.phases import SegmentOptions, segment
+from xlotkit.interpret.phases import ReleaseEvidence, SegmentOptions, segment
 
 BAR = 1e5
 LPM = 1e-3 / 60.0
@@ -399,6 +399,38 @@ def test_ams01_gauge_alone_cycles_a_person_sees(ams):
     assert [c.kind for c in seg1.cycles if c.peak_pressure / BAR > 320] == ["xlot"] * 3
     _, seg2 = ams["dh2"]
     assert [c.kind for c in seg2.cycles] == ["xlot"] * 5
+
+
+@field
+def test_ams01_xlot2_gauge_alone_cycle4_release_where_the_surface_record_opens_the_valve(ams):
+    # XLOT 2, the short cycle at 16:21 (surface clock): 76 s after pump stop the valve is
+    # opened and the well flows back to base. The cementing unit logs it (return rate and
+    # volume from 16:23:46, its flowback phase from 16:23:44); the downhole gauge alone has
+    # only its pressure, which falls 17 times faster than the shut-in's decline just before.
+    # Before the re-acceleration cut the gauge's shut-in ran on through the whole fall (the
+    # candidate fall started at pump stop, where there is no decline to compare with), and
+    # the closure was picked where the fall ended (97.5 bar). The surface record is the
+    # independent truth of where the valve opened: the gauge's release starts within 3 of
+    # its samples (9 s; the clock offset between the files is itself known to a few s).
+    crec, cseg = ams["cu2"]
+    grec, gseg = ams["dh2"]
+    off = ams["m2"][0].meta["clock_offset_s"]
+    cc = next(c for c in cseg.cycles if _clock(crec, c.t_start) == "16:21")
+    fb = next(ph for ph in cc.phases if ph.kind == "flowback")
+    assert ReleaseEvidence.RETURN_FLOW in fb.evidence
+    t_valve = crec.time_at(fb.t_start).timestamp() - off
+    t_cycle = crec.time_at(cc.t_start).timestamp() - off
+    gc = min(gseg.cycles, key=lambda c: abs(grec.time_at(c.t_start).timestamp() - t_cycle))
+    kinds_g = [ph.kind for ph in gc.phases]
+    k = next(i for i, ph in enumerate(gc.phases) if ph.kind in ("bleed", "flowback"))
+    rel = gc.phases[k]
+    assert kinds_g[:k] == ["pump", "shut_in"], kinds_g
+    assert abs(grec.time_at(rel.t_start).timestamp() - t_valve) <= 9.0
+    assert rel.evidence == (ReleaseEvidence.UNEXPLAINED_DECLINE, ReleaseEvidence.PRESSURE_ONLY)
+    # the release runs to base (it took the whole pressure above it: no partial one here)
+    pg = grec.gauge_pressure()
+    base = gseg.scales.base
+    assert pg[rel.i1 - 1] - base < 0.05 * (pg[rel.i0] - base)
 
 
 @field

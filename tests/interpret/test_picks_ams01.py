@@ -120,3 +120,31 @@ def test_xlot2_cycle3_isip_is_the_injections(picks):
     assert isip.details.pump_window == pytest.approx((main.t_start, main.t_end))
     others = [rp.cycle(i).get("ISIP").value for i in (1, 2, 4, 5)]
     assert abs(isip.value - float(np.median(others))) < 1.0 * BAR
+
+
+@pytest.fixture(scope="module")
+def gauge_alone():
+    return pick_record(read_logs([str(AMS / "XLOT 2 - Vlieland Claystone_Downhole Gauge_Data"
+                                            ".TXT")]))
+
+
+@needs_ams
+def test_xlot2_gauge_alone_cycle4_closure_is_not_the_valve(picks, gauge_alone):
+    # The downhole gauge alone (pressure only). Cycle 4's shut-in used to run on through
+    # the valve opening and the fall to base: its closure was picked at the end of that
+    # fall (97.5 bar, the consensus of sqrt_t and g_function) with a bilinear break inside
+    # it at 153.9 bar. The shut-in now ends where the valve opens (a decline 17 times the
+    # shut-in's own: a release with that evidence), no shut-in method picks a closure at or
+    # after it, and the closure comes from the flowback: where the merged record (surface
+    # + gauge, returns logged) puts it, inside that pick's interval.
+    cp = gauge_alone.cycle(4)
+    rel = next(ph for ph in cp.cycle.phases if ph.kind in ("bleed", "flowback"))
+    for m in SHUTIN_METHOD_NAMES:
+        pk = cp.get("FCP", m)
+        assert not pk.found or pk.t < rel.t_start, (m, pk.t, pk.value)
+    fcp = cp.fcp
+    merged = picks["XLOT 2"].cycle(4).fcp
+    assert fcp.found and merged.found
+    assert rel.t_start < fcp.t < rel.t_end
+    assert merged.low <= fcp.value <= merged.high, (fcp.value / BAR, merged.low / BAR,
+                                                     merged.high / BAR)

@@ -246,3 +246,42 @@ def test_reconcile_leaves_agreeing_unrelated_and_user_fixed_picks_alone():
                                Phase("flowback", 22, 30, 22.0, 29.0)), 0.0, 29.0, 3.5e7, 0.5,
                    0.4)
     assert reconcile_closures(bad, pumped) == (bad, [])
+
+
+def _flow_pv(value, k_open, k_closed, se=0.0):
+    p = fcp("flowback_p_v", value)
+    d = FlowbackDetails(stiffness_open=k_open, stiffness_closed=k_closed,
+                        stiffness_ratio=k_closed / k_open, stiffness_open_stderr=se)
+    return Pick(p.name, p.method, p.value, p.low, p.high, quality="good", details=d)
+
+
+def test_the_flowback_open_side_against_the_closed_system_decides_before_the_contrasts():
+    # Closed-system (pressurisation) stiffness 0.15 bar/l = 1.5e7 bar/m3 = 1.5e12 Pa/m3.
+    k = 1.5e12
+    cyc = _pump_shut_flow()
+    # A sharp stiffening shut-in break (x69, an inclined crack piece closing) above a flowback
+    # that starts at 0.2 of the closed system's stiffness: the fracture was open at the
+    # flowback start, so the shut-in's break is not its closure, however strong (the contrast
+    # rule alone keeps the shut-in: checked first).
+    picks = [_shut("g_function", 313.0, "stiffening", 69.0), _flow("flowback_sqrt_p", 294.0, 4.3),
+             _flow_pv(294.2, 0.2 * k, 0.9 * k, se=0.01 * k)]
+    out, _ = reconcile_closures(picks, cyc)
+    assert [p.found for p in out] == [True, False, False]
+    out, notes = reconcile_closures(picks, cyc, closed_stiffness=k,
+                                    closed_stiffness_stderr=0.02 * k)
+    assert [p.found for p in out] == [False, True, True]
+    assert "softer than the closed system" in out[0].message and len(notes) == 1
+    # A flowback that starts at 1.4 times the pressurisation stiffness has no fracture
+    # compliance left to lose: its break (x1.9, stronger than the shut-in's flattening, which
+    # alone would keep the flowback) is rejected and the shut-in's closure stands.
+    picks = [_shut("sqrt_t", 297.0, "flattening", -0.08), _flow("flowback_sqrt_p", 276.0, 1.8),
+             _flow_pv(276.5, 1.4 * k, 2.7 * k, se=0.02 * k)]
+    out, _ = reconcile_closures(picks, cyc)
+    assert [p.found for p in out] == [False, True, True]
+    out, _ = reconcile_closures(picks, cyc, closed_stiffness=k, closed_stiffness_stderr=0.02 * k)
+    assert [p.found for p in out] == [True, False, False]
+    assert "closed system's stiffness" in out[2].message
+    # In between (softer, but not by two standard errors) the contrasts decide as before.
+    picks[2] = _flow_pv(276.5, 0.97 * k, 2.7 * k, se=0.05 * k)
+    out, _ = reconcile_closures(picks, cyc, closed_stiffness=k, closed_stiffness_stderr=0.02 * k)
+    assert [p.found for p in out] == [False, True, True]

@@ -25,7 +25,13 @@ Rules, in order (thresholds: :class:`~xlotkit.interpret.phases.options.SegmentOp
 4. The p-V curve of the pressurisation (every pumping sample up to the pump phase reaching
    the cycle's highest pressure; p against pumping time when no volume is known) gives the
    stiffness as a line between 15 % and 60 % of the gain and the departure as the first
-   lasting fall below it by more than ``departure_tolerance`` of the gain.
+   lasting fall below it by more than ``departure_tolerance`` of the gain -- or, linear all
+   the way to the peak, the peak itself when pumping went on past it (0.15 times the
+   volume to the peak) with the pressure below the line (a brittle breakdown). The gain is
+   counted from the level before pumping or, when the gauge steps up the moment the rate
+   is on (pipe friction and entry losses on a surface gauge: the line's intercept at zero
+   volume lies a significant step above that level and the early samples are already on
+   the line), from the line's intercept: net of the friction step.
    ``xlot`` when pumped more than ``xlot_past_ratio`` times the volume to departure past
    it, or at least 0.15 times while the pressure flattened (gained less than 30 % of the
    linear trend), or fell by ``xlot_fall`` of the gain while pumping; ``lot`` when it
@@ -233,13 +239,67 @@ def _event_hint(record: Record, members, lookback: int) -> str:
     return ("; remarks: " + ", ".join(repr(s) for s in texts)) if texts else ""
 
 
+def _pv_line(x: np.ndarray, p: np.ndarray, k: int, p0: float, gain: float
+             ) -> tuple[np.ndarray, float | None, float]:
+    """The linear p-V trend of a pressurisation up to its peak sample ``k``.
+
+    Fitted between 15 % and 60 % of the gain above ``p0``; a coarse log that puts fewer
+    than 3 samples in that band is read over the lower three quarters of the rise instead
+    (still below any leak-off bend), through two samples if that is all it has there.
+    Returns the samples used, the slope (None when fewer than two samples or no spread)
+    and the intercept at ``x = 0``.
+    """
+    lo, hi = p0 + 0.15 * gain, p0 + 0.6 * gain
+    sel = np.flatnonzero((p[: k + 1] >= lo) & (p[: k + 1] <= hi))
+    if sel.size < 3:
+        sel = np.flatnonzero((p[: k + 1] >= p0 + 0.05 * gain) & (p[: k + 1] <= p0 + 0.75 * gain))
+    if sel.size >= 2 and np.ptp(x[sel]) > 0:
+        slope, icpt = np.polyfit(x[sel], p[sel], 1)
+        return sel, float(slope), float(icpt)
+    return sel, None, 0.0
+
+
+def _start_step(x: np.ndarray, p: np.ndarray, raw: np.ndarray, k: int, p0: float,
+                gain: float, noise: float, opt: SegmentOptions) -> float | None:
+    """The pressure step at the pump start [Pa], or None when there is none.
+
+    A surface gauge reads the pipe friction and entry losses on top of the well's
+    pressure: they appear the moment the rate is on, as a step, and the loading line starts
+    from there. The step is the p-V line's intercept at zero pumped volume above the level
+    before pumping ``p0``. It is taken when it is significant (``noise_multiple`` noise and
+    ``departure_tolerance`` of the gain) and, with the line refitted over the band above
+    the step, the early pumping samples below that band (the first two left out: the rate
+    ramping up) already lie on it within ``departure_tolerance`` of the gain: the pressure
+    jumped onto the line. Leak-off from the start bends the early p-V curve below its later
+    line instead (its intercept is above ``p0`` too, but the early samples fall short of
+    it); a stiffening start puts the intercept below ``p0``.
+    """
+    _, slope, icpt = _pv_line(x, p, k, p0, gain)
+    tol = opt.departure_tolerance * gain
+    if slope is None or slope <= 0 or icpt - p0 <= max(opt.noise_multiple * noise, tol) \
+            or icpt - p0 >= 0.5 * gain:
+        return None
+    sel, slope, icpt = _pv_line(x, p, k, icpt, p[k] - icpt)
+    if slope is None or slope <= 0 or not sel.size:
+        return None
+    early = np.arange(2, int(sel[0]))
+    if early.size < 2:
+        return None
+    off = raw[early] - (icpt + slope * x[early])
+    if np.mean(np.abs(off) <= tol) < 0.8:
+        return None
+    step = icpt - p0
+    return float(step) if step > max(opt.noise_multiple * noise, tol) else None
+
+
 def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: float,
             pv_volume: np.ndarray | None, opt: SegmentOptions, *,
-            repressurised: bool = False) -> CycleShape:
+            repressurised: bool = False, noise: float = 0.0) -> CycleShape:
     """Measure one cycle for :func:`classify` (module docstring, rule 4).
 
     ``repressurised``: the cycle's shut-in is ended by the next cycle's pumping (no release
-    between), which a DFIT's falloff is not.
+    between), which a DFIT's falloff is not. ``noise``: the record's pressure noise [Pa]
+    (a step at the pump start must exceed ``noise_multiple`` times it).
     """
     t = record.t
     kmain = _main_pump(members)
@@ -276,24 +336,25 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
                      "pressure above the pre-test level")
     hint = _event_hint(record, members, 15 * opt.settle_samples)
     pumped = float(sum(ph.pumped_m3 for ph in pumps))
-    head = f"+{gain / _BAR:.0f} bar to {pk / _BAR:.0f} bar gauge"
+    # ------------------------------------------------------------ p-V linearity
+    raw = np.asarray(record.gauge_pressure(), float)[idx]
+    step = _start_step(x, p, raw, k, p0, gain, noise, opt)
+    net = ""
+    if step is not None:
+        # a step at the pump start (pipe friction and entry losses on a surface gauge, read
+        # the moment the rate is on): the pressurisation is judged from the p-V line's own
+        # start, its intercept at zero volume, not from the level before pumping
+        p0 += step
+        gain = pk - p0
+        net = f" (net of a {step / _BAR:.3g} bar step at the pump start)"
+    sel, slope, icpt = _pv_line(x, p, k, p0, gain)
+    head = f"+{gain / _BAR:.0f} bar{net} to {pk / _BAR:.0f} bar gauge"
     if have_v:
         head = f"{pumped:.3g} m3 pumped, " + head
     vpk = max(float(x[k]), 0.0) if have_v else None
     stiff_v = gain / vpk if (have_v and vpk and vpk > 0) else (np.inf if have_v else None)
-
-    # ------------------------------------------------------------ p-V linearity
-    lo, hi = p0 + 0.15 * gain, p0 + 0.6 * gain
-    sel = np.flatnonzero((p[: k + 1] >= lo) & (p[: k + 1] <= hi))
-    if sel.size < 3:
-        # a coarse log puts fewer than 3 samples in that band: the line is read over the
-        # lower three quarters of the rise instead (still below any leak-off bend), through
-        # two samples if that is all the log has there
-        sel = np.flatnonzero((p[: k + 1] >= p0 + 0.05 * gain) & (p[: k + 1] <= p0 + 0.75 * gain))
-    slope = None
     dep = None
-    if sel.size >= 2 and np.ptp(x[sel]) > 0:
-        slope, icpt = np.polyfit(x[sel], p[sel], 1)
+    if slope is not None:
         if slope > 0:
             tol = opt.departure_tolerance * gain
             below = (icpt + slope * x[: k + 1] - p[: k + 1]) > tol
@@ -303,6 +364,12 @@ def measure(record: Record, members: tuple[Phase, ...], ps: np.ndarray, base: fl
                 if np.mean(below[j: k + 1]) >= 0.8:
                     dep = int(j)
                     break
+            # linear all the way to the peak, and pumping went on past it (at least 0.15
+            # times the volume to the peak) with the pressure mostly below the line: the
+            # rock gave way at the peak (a brittle breakdown, no bend first)
+            if dep is None and k + 1 < p.size and x[-1] - x[k] >= 0.15 * x[k] > 0 \
+                    and np.mean(icpt + slope * x[k + 1:] - p[k + 1:] > tol) >= 0.8:
+                dep = k
         else:
             slope = None
     if have_v and slope is not None:

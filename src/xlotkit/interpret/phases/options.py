@@ -23,7 +23,8 @@ __all__ = ["SegmentOptions"]
 #: Options that are fractions strictly between 0 and 1.
 _FRACTIONS = ("pump_on", "pump_off", "return_on", "return_off", "idle_fraction",
               "leg_fraction", "cycle_fraction", "release_fraction", "restart_fraction",
-              "bleed_fraction", "fast_release", "release_levelling", "unmetered_steepness",
+              "bleed_fraction", "partial_release_fraction", "fast_release",
+              "release_levelling", "unmetered_steepness",
               "rise_steepness", "rise_linearity", "rise_levelling", "rough_fraction",
               "step_fraction", "line_test_volume", "departure_tolerance", "xlot_fall",
               "hold_max_drop", "rate_step_change", "rate_step_stable", "base_dwell_fraction")
@@ -99,7 +100,13 @@ class SegmentOptions:
         new cycle: a second pressurisation, not a top-up [0.25].
     bleed_fraction : float
         A release (bleed / flowback) takes away at least this fraction of the pressure above
-        base [0.6]; smaller fast falls (the step at pump stop) stay shut-in.
+        base [0.6]; smaller fast falls (the step at pump stop) stay shut-in unless they are
+        a partial release (``partial_release_fraction``).
+    partial_release_fraction : float
+        A smaller fall, taking at least this fraction of the pressure above base, is a
+        partial release (a valve opened and shut again) when it starts abruptly from a
+        shut-in whose own decline it outpaces ``acceleration`` times and ends abruptly
+        (it does not die away like leak-off) [0.05].
     acceleration : float
         A fall is a release when it is this many times faster than the decline of the
         shut-in just before it: leak-off only slows down [3].
@@ -205,6 +212,7 @@ class SegmentOptions:
     release_fraction: float = 0.5
     restart_fraction: float = 0.25
     bleed_fraction: float = 0.6
+    partial_release_fraction: float = 0.05
     acceleration: float = 3.0
     release_levelling: float = 0.55
     fast_release: float = 0.1
@@ -250,6 +258,10 @@ class SegmentOptions:
         for on, off in (("pump_on", "pump_off"), ("return_on", "return_off")):
             if getattr(self, off) > getattr(self, on):
                 raise InputError(f"must not exceed {on} ({getattr(self, on)!r})", key=off)
+        if self.partial_release_fraction > self.bleed_fraction:
+            raise InputError(f"must not exceed bleed_fraction ({self.bleed_fraction!r}), got "
+                             f"{self.partial_release_fraction!r}",
+                             key="partial_release_fraction")
         for name in ("acceleration", "step_contrast", "line_test_stiffness", "rough_multiple"):
             if getattr(self, name) <= 1.0:
                 raise InputError(f"must be > 1, got {getattr(self, name)!r}", key=name)

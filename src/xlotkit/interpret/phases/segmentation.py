@@ -297,13 +297,14 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
 
     # ---------------------------------------------------------------- releases
     free = ~pump
-    returns, _ = return_flow(record, free, rate_scale, opt)
+    returns, logged = return_flow(record, free, rate_scale, opt)
     bits = np.zeros(n, np.int64)
     bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
     bleed = np.zeros(n, bool)
     flowback = returns.copy()
     releases = find_releases(record, ps, dpdt, pump, base, noise, opt,
-                             pressure_only=not used_rate)
+                             pressure_only=not used_rate,
+                             returns=returns.copy() if logged else None)
     pump_runs = runs(pump)
     # a return volume read through a slope window starts a return run up to half that window
     # before the fluid moves; where the pressure's own release starts within that reach,
@@ -324,6 +325,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
     bits[returns] |= _BITS[ReleaseEvidence.RETURN_FLOW]
     for rel in releases:
         a, b = rel.a, rel.b
+        notes.append(rel.describe(t))
         for ev in rel.evidence:
             bits[a:b] |= _BITS[ev]
         if np.mean(returns[a:b]) >= 0.5 or (not used_rate
@@ -380,7 +382,7 @@ def segment(record: Record, *, options: SegmentOptions | None = None) -> Segment
             merged.append(ph)
     starts = {phases[g[0]].i0 for g in groups}
     ends = {phases[g[1] - 1].i1 for g in groups}
-    cycles = _cycles(record, merged, starts, ends, ps, base, pv_volume, opt)
+    cycles = _cycles(record, merged, starts, ends, ps, base, pv_volume, opt, noise)
     notes.append(f"{len(cycles)} cycle(s): " + ", ".join(c.kind for c in cycles)
                  if cycles else "no cycles found")
     return Segmentation(phases=tuple(merged), cycles=tuple(cycles), used_rate=used_rate,
@@ -531,7 +533,7 @@ def _cycle_groups(phases: list[Phase], ps, base, span, band, noise, opt: Segment
     return out, result
 
 
-def _cycles(record, phases, starts, ends, ps, base, pv_volume, opt) -> list[Cycle]:
+def _cycles(record, phases, starts, ends, ps, base, pv_volume, opt, noise) -> list[Cycle]:
     """Cycles over the merged phases, from each start sample to each end sample."""
     by_start = {ph.i0: k for k, ph in enumerate(phases)}
     members_list = []
@@ -549,7 +551,8 @@ def _cycles(record, phases, starts, ends, ps, base, pv_volume, opt) -> list[Cycl
         k_next = by_start.get(m[-1].i1)
         again = (m[-1].kind == "shut_in" and k_next is not None
                  and phases[k_next].kind == "pump")
-        shapes.append(measure(record, m, ps, base, pv_volume, opt, repressurised=again))
+        shapes.append(measure(record, m, ps, base, pv_volume, opt, repressurised=again,
+                              noise=noise))
     kinds = classify(shapes, opt)
     cycles = []
     for c, (members, (kind, reason)) in enumerate(zip(members_list, kinds)):

@@ -77,6 +77,26 @@ and details stay in :class:`~xlotkit.interpret.picks.details.RejectedDetails`):
 
 With equal evidence (none on either side) both sides are kept and a note says so.
 
+Before the contrasts are weighed, the flowback's *open-side* stiffness is set against the
+closed system's, measured independently in the same cycle: the pressurisation line's
+dp/dV before leak-off or reopening (:attr:`CyclePicks.stiffness`). Leak-off biases the two
+in opposite directions (while pumping it takes fluid from the well and lowers dp/dV of the
+pumped volume; while flowing back it drains the well too and raises dp/dV of the returned
+volume), so the pressurisation stiffness is a lower bound of the closed system's and the
+flowback's open-side stiffness an upper bound of the system's at the flowback start:
+
+* open side significantly softer than the pressurisation line (by more than twice the
+  combined standard error): the system still carried the fracture's compliance when the
+  flowback began, so the fracture had not closed in the shut-in; the shut-in picks above
+  the flowback's closure are rejected, however strong their break (a crack that turned
+  at an interface closes its inclined pieces first, at their higher normal stress, with a
+  sharp stiffening that is not the closure of the plane normal to sigma_h);
+* open side at least as stiff as the pressurisation line: the flowback started on the
+  closed system's stiffness, so its break is not the fracture's compliance leaving (it is
+  a change of leak-off or of the near-well flow); the flowback picks below the shut-in's
+  closure are rejected;
+* otherwise (in between, or no stiffness on one side) the contrasts decide as above.
+
 A shut-in break at the phase boundary (where the valve opens for the flowback) carries no
 evidence either: the shut-in methods reject such candidates themselves
 (:mod:`~xlotkit.interpret.picks.shutin`, "Closure candidates at a boundary"), so they never
@@ -484,7 +504,35 @@ def _adjacent_shutin_flowback(cycle: Cycle) -> bool:
                    for ph in cycle.phases)
 
 
-def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] | None = None
+def _open_side_test(flow: Sequence[Pick], closed_stiffness: float | None,
+                    closed_stderr: float | None) -> tuple[str, str]:
+    """Where the flowback started, from its open-side stiffness against the cycle's
+    pressurisation stiffness (module docstring): ``("open" | "closed" | "", why)``."""
+    if closed_stiffness is None or not np.isfinite(closed_stiffness) or closed_stiffness <= 0:
+        return "", ""
+    for p in flow:
+        d = p.details
+        if not isinstance(d, FlowbackDetails) or d.stiffness_open is None:
+            continue
+        k_open = float(d.stiffness_open)
+        if not np.isfinite(k_open) or k_open <= 0:
+            continue
+        se = np.hypot(d.stiffness_open_stderr or 0.0, closed_stderr or 0.0)
+        margin = 2.0 * float(se)        # two combined standard errors
+        said = (f"{p.method}'s open-side stiffness {k_open / 1e5:.4g} bar/m3 against the "
+                f"pressurisation line's {closed_stiffness / 1e5:.4g} bar/m3")
+        if k_open + margin < closed_stiffness:
+            return "open", said
+        if k_open >= closed_stiffness:
+            # at or above the lower bound of the closed system's stiffness: no fracture
+            # compliance left to lose (between the two tests the contrasts decide)
+            return "closed", said
+    return "", ""
+
+
+def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] | None = None,
+                       closed_stiffness: float | None = None,
+                       closed_stiffness_stderr: float | None = None
                        ) -> tuple[list[Pick], list[str]]:
     """Make the shut-in and flowback closure picks of a cycle agree on one closure.
 
@@ -497,6 +545,10 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
     cycle : Cycle
     fixed : set of str, optional
         Methods whose window or tangents the user fixed: never rejected.
+    closed_stiffness, closed_stiffness_stderr : float, optional
+        The cycle's pressurisation stiffness dp/dV and its standard error [Pa/m^3]: the
+        closed system's, against which the flowback's open side is judged (None: the
+        contrasts alone decide).
 
     Returns
     -------
@@ -534,11 +586,23 @@ def reconcile_closures(picks: Sequence[Pick], cycle: Cycle, *, fixed: set[str] |
                        for p in picks)
     c_flow = 0.0 if contradicted else max(_contrast(p) for p in flow)
     c_shut = max(_contrast(p) for p in shut)
-    if c_flow == c_shut:
+    start, measured = ("", "") if contradicted else _open_side_test(
+        flow, closed_stiffness, closed_stiffness_stderr)
+    if start == "open":
+        losers = {p.method for p in shut if lo(p) > f_hi}
+        why = (f"the flowback that follows finds closure at {f_hi / 1e5:.1f} bar or below and "
+               f"started softer than the closed system ({measured}), so the fracture was "
+               "still open when the shut-in ended")
+    elif start == "closed":
+        losers = {p.method for p in flow if hi(p) < s_lo}
+        why = (f"the flowback started on the closed system's stiffness ({measured}), so "
+               f"its break is not the fracture closing; the shut-in closed it at "
+               f"{s_lo / 1e5:.1f} bar or above")
+    elif c_flow == c_shut:
         return picks, [f"the shut-in finds closure at {s_lo / 1e5:.1f} bar or above and the "
                        f"flowback after it at {f_hi / 1e5:.1f} bar or below; neither has the "
                        "stronger evidence of the fracture's compliance leaving, both kept"]
-    if c_flow > c_shut:
+    elif c_flow > c_shut:
         # The flowback saw the fracture open below these: no closure in the shut-in.
         losers = {p.method for p in shut if lo(p) > f_hi}
         why = (f"the flowback that follows finds closure at {f_hi / 1e5:.1f} bar or below "
@@ -807,9 +871,11 @@ def pick_cycle(record: Record, cycle: Cycle, *, previous: CyclePicks | None = No
                               tangents=tan, isip=isip if isip.found else None))
     fixed = {m for m in FCP_METHODS
              if options.window(ci, m) is not None or options.tangent(ci, m) is not None}
-    picks, why = reconcile_closures(picks, cycle, fixed=fixed)
-    notes.extend(why)
+    # the closed system's stiffness (LOP/Pr picked above; the closure picks do not enter it)
     s, se, src = _stiffness(record, cycle, picks)
+    picks, why = reconcile_closures(picks, cycle, fixed=fixed, closed_stiffness=s,
+                                    closed_stiffness_stderr=se)
+    notes.extend(why)
     return CyclePicks(cycle, tuple(picks), ref, s, se, src, notes=tuple(notes))
 
 

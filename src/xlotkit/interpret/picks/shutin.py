@@ -87,6 +87,7 @@ from xlotkit.interpret.picks.intervals import (
     correlation_inflation,
     find_transition,
 )
+from xlotkit.interpret.picks.kink import KINK_Z, find_kink
 from xlotkit.interpret.picks.models import LineFit, fit_hinge, fit_line, intersect
 from xlotkit.interpret.picks.pressurisation import (
     MIN_LINE_POINTS,
@@ -491,11 +492,42 @@ def _best_break(G: np.ndarray, p: np.ndarray, t: np.ndarray, sigma: float,
     return max(earlier, key=lambda c: c.score) if earlier else best
 
 
+def _kink_break(G: np.ndarray, p: np.ndarray, t: np.ndarray) -> _Break | None:
+    """Closure as a kink against a smooth curve over wide windows
+    (:func:`~xlotkit.interpret.picks.kink.find_kink`) on a coarsely quantised decline,
+    where the local scan finds none (issue 19).
+
+    Only where quantisation denies the scan its windows: the scan asks a fall of ``3 q``
+    across a window, and where the decline falls by less over its finest window
+    (``BREAK_SCALES[0]`` of the G range) at most of its samples (the median; a whole-bar
+    gauge on a decline of less than about 100 bar) the scan cannot see the slope there.
+    Elsewhere its windows see the slope, and a smooth, strongly bending decline (tip
+    extension, a pressure transient in a shut-in that ends above closure, simulated to
+    the Pa) is told from closure by its rules, not by a polynomial's misfit. The lines
+    either side are fitted over ``2 w = W`` before and ``w = W / 2`` after the kink."""
+    q = quantum(p)
+    if not q > 0:
+        return None
+    w0 = BREAK_SCALES[0] * float(G[-1] - G[0])
+    ahead = G + w0 <= G[-1]
+    fall = p[ahead] - np.interp(G[ahead] + w0, G, p)
+    if not (fall.size and float(np.median(fall)) < 3.0 * q):
+        return None
+    k = find_kink(G, p, q, min_change=MIN_SLOPE_CHANGE)
+    if k is None:
+        return None
+    rel = abs(k.s_after - k.s_before) / abs(k.s_before)
+    return _Break(k.i, float(G[k.i]), float(t[k.i]), 0.5 * k.w, k.s_before, k.s_after,
+                  rel * (1.0 - KINK_Z / k.z))
+
+
 def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
     """Closure as the sharpest significant, lasting change of slope of p vs G, or None.
 
     Searched on the decline up to its boundary zone (:func:`_best_break`), a break must be
-    seen to last there. The break the search finds on the whole decline, boundary zone
+    seen to last there; where it finds none, a kink against a smooth curve over wider
+    windows is looked for (:func:`_kink_break`). The break the search finds on the whole
+    decline, boundary zone
     included, is kept in ``sh.cache["rejected"]`` when its new slope needs samples of the
     zone: a candidate at the phase boundary, rejected with that reason.
     """
@@ -505,6 +537,8 @@ def _find_break(sh: _Shut, alpha: float = 1.0) -> _Break | None:
     sl = slice(sh.j0, None)
     G = g_function(sh.dt[sl], sh.t_pump, alpha)
     best = _best_break(G, sh.p[sl], sh.t[sl], sh.sigma, confirm=True)
+    if best is None:
+        best = _kink_break(G, sh.p[sl], sh.t[sl])
     rejected = list(sh.cache.get("rejected", ()))
     if sh.t_all.size > sh.t.size:
         G_all = g_function(sh.t_all[sh.j0:] - sh.t_s, sh.t_pump, alpha)
