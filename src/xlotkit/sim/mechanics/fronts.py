@@ -122,8 +122,13 @@ class CrackFronts:
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
         if not cracked.any():
             return np.zeros(len(cs), dtype=bool)
-        on_crack = np.asarray(self.incidence[cracked].sum(axis=0)).ravel() > 0
-        return np.asarray(self.incidence @ on_crack.astype(float)).ravel() > 0
+        # (the incidence's rows are the triangles' nodes: index them directly, which
+        # is ~20x cheaper than slicing the sparse incidence; it is asked at every
+        # failure check, several times)
+        tris = self.mesh.triangles
+        on_crack = np.zeros(self.mesh.n_nodes, dtype=bool)
+        on_crack[tris[cracked].ravel()] = True
+        return on_crack[tris].any(axis=1)
 
     def crack_tips(self, state) -> tuple[np.ndarray, np.ndarray]:
         """Intact clusters ahead of a crack end, and the fluid pressure on that crack.
