@@ -99,12 +99,17 @@ def _permuted_csc_kernel(indptr, indices, q, pos, out_map, out_indices, out_indp
 @njit(cache=True)
 def _scaled_matvec_kernel(indptr, indices, data, x, r, out):  # pragma: no cover - compiled
     # out = r * (A @ x) for the CSR A: each row summed from 0 in the order of its stored
-    # entries, as SciPy's csr_matvec does, so the result is the same to the bit
+    # entries, as SciPy's csr_matvec does, so the result is the same to the bit (the
+    # column index read unsigned: no negative-index wraparound in the inner loop, which
+    # otherwise makes it ~1.5x slower than SciPy's)
+    a = np.int64(indptr[0])
     for i in range(indptr.shape[0] - 1):
+        b = np.int64(indptr[i + 1])
         s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            s += data[k] * x[indices[k]]
+        for k in range(a, b):
+            s += data[k] * x[np.uint64(indices[k])]
         out[i] = r[i] * s
+        a = b
 
 
 @njit(cache=True)
@@ -157,6 +162,8 @@ def scaled_matvec(A: sp.csr_matrix, x: np.ndarray, r: np.ndarray,
     r = np.ascontiguousarray(r, dtype=np.float64)
     if x.shape != (A.shape[1],) or r.shape != (n,):
         raise InputError(f"x {x.shape} and r {r.shape} do not match A {A.shape}", key="x")
+    if A.nnz and (int(A.indices.min()) < 0 or int(A.indices.max()) >= A.shape[1]):
+        raise InputError("A has column indices out of range", key="A")
     if out is None:
         out = np.empty(n)
     elif out.shape != (n,) or out.dtype != np.float64:
