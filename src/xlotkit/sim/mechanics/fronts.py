@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
+from numba import njit
 from scipy.spatial import cKDTree
 
 from xlotkit.sim.mechanics.failure import (
@@ -111,6 +111,8 @@ class CrackFronts:
         touch = (self.incidence @ self.incidence.T).tocoo()
         self._touch_pairs = (touch.row.astype(np.int64), touch.col.astype(np.int64))
         self._node_clusters = self.incidence.T.tocsr()
+        # the last state asked for its crack tips, with the answer (crack_tips)
+        self._tips_of: tuple | None = None
 
     def touches_crack(self, cluster_state: np.ndarray) -> np.ndarray:
         """Clusters sharing at least one node with a failed (tensile, shear or preset)
@@ -153,6 +155,18 @@ class CrackFronts:
             Mean pressure of the failed clusters touching each tip cluster (the crack
             fluid pressure at that tip); 0 elsewhere.
         """
+        last = self._tips_of
+        if last is not None and last[0] is state:
+            # asked again for the same state (the failure check asks, then the crack
+            # fronts it measures): the state is immutable, the answer the same
+            return last[1], last[2]
+        tip, pf = self._crack_tips(state)
+        tip.setflags(write=False)
+        pf.setflags(write=False)
+        self._tips_of = (state, tip, pf)
+        return tip, pf
+
+    def _crack_tips(self, state) -> tuple[np.ndarray, np.ndarray]:
         cs = np.asarray(state.cluster_state)
         nc = len(cs)
         cracked = (cs == FAILED_TENSILE) | (cs == FAILED_SHEAR) | (cs == PRESET)
@@ -234,9 +248,7 @@ class CrackFronts:
         keep = tip[i] & tip[c]
         pos = np.full(len(cs), -1, dtype=np.int64)
         pos[idx] = np.arange(len(idx))
-        graph = sp.csr_matrix((np.ones(int(keep.sum())), (pos[i[keep]], pos[c[keep]])),
-                              shape=(len(idx), len(idx)))
-        n_groups, label = connected_components(graph, directed=False)
+        n_groups, label = connected_labels(len(idx), pos[i[keep]], pos[c[keep]])
         cen = self.mesh.centroids
         cracked_idx = np.flatnonzero(cracked)
         # clusters that can extend a crack: intact, sharing an edge with a failed one
@@ -325,7 +337,10 @@ class CrackFronts:
         near = np.asarray(self._node_tree.query_ball_point(x_tip, r_out), dtype=np.int64)
         if near.size == 0:
             return 0.0, 0.0
-        els = np.unique(self._node_clusters[near].indices)
+        # the clusters with a node in the disc (sorted, each once)
+        on = np.zeros(self.mesh.n_nodes, dtype=bool)
+        on[near] = True
+        els = np.flatnonzero(on[tris].any(axis=1))
         els = els[~cracked[els]]
         q = np.zeros(self.mesh.n_nodes)
         q[near] = np.clip((r_out - np.hypot(*(nodes[near] - x_tip).T)) / (r_out - r_in),
@@ -337,6 +352,54 @@ class CrackFronts:
             self._grad_n[els], tris[els], self.area[els], self.mesh.centroids[els],
             np.asarray(state.displacement), stress, self._compliance, q, x_tip, t,
             self.young, self.poisson)
+
+
+@njit(cache=True)
+def _components_kernel(a, b, parent, label):  # pragma: no cover - compiled
+    for v in range(parent.shape[0]):
+        parent[v] = v
+    for e in range(a.shape[0]):
+        # union by the smaller root, with path halving
+        x = a[e]
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        y = b[e]
+        while parent[y] != y:
+            parent[y] = parent[parent[y]]
+            y = parent[y]
+        if x < y:
+            parent[y] = x
+        elif y < x:
+            parent[x] = y
+    # labels in the order of each component's first vertex
+    n_groups = 0
+    for v in range(parent.shape[0]):
+        r = v
+        while parent[r] != r:
+            r = parent[r]
+        if r == v:
+            label[v] = n_groups
+            n_groups += 1
+        else:
+            label[v] = label[r]
+    return n_groups
+
+
+def connected_labels(n: int, a: np.ndarray, b: np.ndarray) -> tuple[int, np.ndarray]:
+    """Connected components of the undirected graph on ``n`` vertices with the edges
+    ``(a_e, b_e)``: ``(n_groups, labels)``, the labels numbered in the order of each
+    component's lowest vertex (as :func:`scipy.sparse.csgraph.connected_components`
+    numbers them), without building a sparse matrix."""
+    a = np.ascontiguousarray(a, dtype=np.int64)
+    b = np.ascontiguousarray(b, dtype=np.int64)
+    if a.shape != b.shape or a.ndim != 1:
+        raise ValueError("a and b must be 1D arrays of the same length")
+    if a.size and (min(a.min(), b.min()) < 0 or max(a.max(), b.max()) >= n):
+        raise ValueError(f"edge ends out of range [0, {n})")
+    label = np.empty(n, dtype=np.int32)
+    n_groups = _components_kernel(a, b, np.empty(n, dtype=np.int64), label)
+    return int(n_groups), label
 
 
 def _edge_neighbours(mesh: Mesh) -> np.ndarray:
