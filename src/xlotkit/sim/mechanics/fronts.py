@@ -113,6 +113,9 @@ class CrackFronts:
         self._node_clusters = self.incidence.T.tocsr()
         # the last state asked for its crack tips, with the answer (crack_tips)
         self._tips_of: tuple | None = None
+        # what depends only on the set of failed clusters (the tip points and crack
+        # directions, the interaction-integral domains: geometry), kept for the last set
+        self._geometry_of: tuple[bytes, dict] = (b"", {})
 
     def touches_crack(self, cluster_state: np.ndarray) -> np.ndarray:
         """Clusters sharing at least one node with a failed (tensile, shear or preset)
@@ -275,9 +278,32 @@ class CrackFronts:
                                      face_pressure=float(pf[c0])))
         return fronts
 
+    def _geometry(self, cracked: np.ndarray) -> dict:
+        """The memo of the geometric answers for the failed clusters ``cracked`` (bool,
+        (n_c,)): a new (empty) one when the set differs from the last one asked for. The
+        failure checks of one failure round (at a loose and at the converged iterate,
+        retries) ask for the same set."""
+        key = np.packbits(cracked).tobytes()
+        if self._geometry_of[0] != key:
+            self._geometry_of = (key, {})
+        return self._geometry_of[1]
+
     def _locate_tip(self, c0: int, cracked_idx: np.ndarray, radius: float):
         """Tip point and crack direction near cluster ``c0`` (see :meth:`fronts`),
-        or None without failed clusters nearby."""
+        or None without failed clusters nearby (a function of the failed clusters'
+        geometry alone, remembered for the present set)."""
+        memo = self._geometry(self._cracked_mask(cracked_idx))
+        key = ("tip", int(c0), float(radius))
+        if key not in memo:
+            memo[key] = self._locate_tip_now(c0, cracked_idx, radius)
+        return memo[key]
+
+    def _cracked_mask(self, cracked_idx: np.ndarray) -> np.ndarray:
+        m = np.zeros(self.mesh.n_triangles, dtype=bool)
+        m[cracked_idx] = True
+        return m
+
+    def _locate_tip_now(self, c0: int, cracked_idx: np.ndarray, radius: float):
         cen = self.mesh.centroids
         dist = np.hypot(*(cen[cracked_idx] - cen[c0]).T)
         near = cracked_idx[dist < radius]
@@ -332,11 +358,31 @@ class CrackFronts:
                                 face_pressure: float,
                                 cracked: np.ndarray) -> tuple[float, float]:
         """``K_I, K_II`` [Pa m^0.5] by the interaction integral (see :meth:`fronts`)."""
+        tris = self.mesh.triangles
+        memo = self._geometry(cracked)
+        key = ("domain", np.asarray(x_tip, dtype=float).tobytes(), float(r_in), float(r_out))
+        if key not in memo:
+            memo[key] = self._domain(x_tip, r_in, r_out, cracked)
+        dom = memo[key]
+        if dom is None:
+            return 0.0, 0.0
+        els, q = dom
+        stress = np.array(np.asarray(state.stress)[els], dtype=float)
+        stress[:, :2] -= face_pressure
+        return tip_stress_intensities(
+            self._grad_n[els], tris[els], self.area[els], self.mesh.centroids[els],
+            np.asarray(state.displacement), stress, self._compliance, q, x_tip, t,
+            self.young, self.poisson)
+
+    def _domain(self, x_tip: np.ndarray, r_in: float, r_out: float, cracked: np.ndarray):
+        """The interaction integral's domain about ``x_tip``: the intact clusters with a
+        node within ``r_out`` and the weight ``q`` of every node (1 inside ``r_in``, 0
+        beyond ``r_out`` and on the mesh boundary); None when no node is that close."""
         nodes = self.mesh.nodes
         tris = self.mesh.triangles
         near = np.asarray(self._node_tree.query_ball_point(x_tip, r_out), dtype=np.int64)
         if near.size == 0:
-            return 0.0, 0.0
+            return None
         # the clusters with a node in the disc (sorted, each once)
         on = np.zeros(self.mesh.n_nodes, dtype=bool)
         on[near] = True
@@ -346,12 +392,9 @@ class CrackFronts:
         q[near] = np.clip((r_out - np.hypot(*(nodes[near] - x_tip).T)) / (r_out - r_in),
                           0.0, 1.0)
         q[self._boundary_nodes] = 0.0
-        stress = np.array(np.asarray(state.stress)[els], dtype=float)
-        stress[:, :2] -= face_pressure
-        return tip_stress_intensities(
-            self._grad_n[els], tris[els], self.area[els], self.mesh.centroids[els],
-            np.asarray(state.displacement), stress, self._compliance, q, x_tip, t,
-            self.young, self.poisson)
+        els.setflags(write=False)
+        q.setflags(write=False)
+        return els, q
 
 
 @njit(cache=True)
