@@ -465,13 +465,20 @@ class CoupledModel:
         self.n_u = len(self.free_dofs)
         self.n_cells = mesh.n_triangles
         self.n_unknowns = self.n_u + self.n_cells + 1
+        # a constant load (not a function of time): its free-DOF part and its scale are
+        # computed once (_evaluate)
+        self._load_const: tuple | None = None
         if callable(load):
             self._load = load
         else:
             f = np.zeros(n_dof) if load is None else np.asarray(load, dtype=float)
             if f.shape != (n_dof,):
                 raise InputError(f"load must have shape ({n_dof},)", key="load")
+            f = f.copy()
+            f.setflags(write=False)
             self._load = lambda t, _f=f: _f
+            lf = f[self.free_dofs]
+            self._load_const = (f, lf, float(np.max(np.abs(lf), initial=0.0)))
         if length_scale is None:
             self.length_scale = cluster_length_scale(mesh.areas)
         else:
@@ -489,6 +496,10 @@ class CoupledModel:
                                                          np.repeat(np.arange(nc), 6))),
                                      shape=(n_dof, nc))[self.free_dofs].tocsr()
         self.f_wall = np.asarray(mechanics.f_wall, dtype=float)[self.free_dofs]
+        self._f_wall_max = float(np.max(np.abs(self.f_wall), initial=0.0))
+        # per set of cluster states: the pressure coefficients, the G entries and the
+        # failed clusters' reference force scale (they change only when clusters fail)
+        self._cs_memo: tuple[bytes, tuple] | None = None
         # where every entry of the Jacobian goes (the pattern per set of failed clusters)
         self.layout = CoupledLayout(
             dofs, unknown, self.n_u, self.f_wall, flow.jacobian_triplets,
@@ -496,6 +507,8 @@ class CoupledModel:
             well_row_permeability=flow.has_well and not flow.well.pressure_controlled,
             biot_blocks=self.biot > 0.0)
         self._wall_rows = self.layout.wall_rows
+        self._wall_column = -self.f_wall[self._wall_rows]
+        self._wall_column.setflags(write=False)
 
     # ---------------------------------------------------------------- setup
     def initial_state(self, mechanics_state: MechanicsState | None = None,
@@ -523,6 +536,7 @@ class CoupledModel:
         *_, fc_now, _, _ = m._response(ms.displacement, cs0, np.asarray(ms.ref_normal),
                                        np.asarray(ms.ref_shear), self.p0)
         self._fc0 = np.where((cs0 != INTACT)[:, None], fc_now, fc_int)
+        self._cs_memo = None
         self._cs0 = cs0.copy()
         fs = self.flow.initial_state(self.p0, p_w=self.pw0, t=t)
         return CoupledState(self.u0.reshape(-1, 2), fs, np.zeros(m.n_dof), mechanics=ms)
@@ -752,21 +766,24 @@ class CoupledModel:
         ref_n = np.asarray(st.ref_normal)
         Fn, Fs, status, sgn, f_c, Un, Us = mech._response(
             u, cs, ref_n, np.asarray(st.ref_shear), p, frozen=frozen)
-        coef = self.coefficients(cs)
+        coef, g_values, fc0_scale = self._cluster_memo(cs, failed)
         fint, fabs, _ = cluster_forces(mech.dofs, du_full, failed, f_c, self._fc0,
                                        mech.k_intact, coef, dp, self._g, mech.n_dof)
         fint = fint[self.free_dofs]
-        Lf = load[self.free_dofs]
+        lc = self._load_const
+        if lc is not None and load is lc[0]:
+            Lf, l_max = lc[1], lc[2]
+        else:
+            Lf = load[self.free_dofs]
+            l_max = float(np.max(np.abs(Lf), initial=0.0))
         Ru = fint - self.f_wall * dpw - Lf
         force_scale = max(float(np.max(fabs[self.free_dofs], initial=0.0)),
-                          float(np.max(np.abs(self.f_wall), initial=0.0)) * abs(dpw),
-                          float(np.max(np.abs(Lf), initial=0.0)), 1e-300)
-        if failed.any():
+                          self._f_wall_max * abs(dpw), l_max, 1e-300)
+        if fc0_scale is not None:
             # failed clusters' forces are differences of absolute contact forces; the
             # scale must not drop below their round-off (1e-4 x their size -> the 1e-10
             # tolerance is 1e-14 of the absolute forces, a few ulps of the sums)
-            force_scale = max(force_scale,
-                              1e-4 * float(np.max(np.abs(self._fc0[failed]))))
+            force_scale = max(force_scale, fc0_scale)
         # fracture permeability: the openings (smooth law) or the signed gaps (closure
         # law: a closed crack's hydraulic aperture follows its normal stress)
         g_n = Un - ref_n
@@ -795,9 +812,9 @@ class CoupledModel:
             if permeability_derivative and not undrained and np.any(dk_dw > 0):
                 crack = self._crack_entries(it.flow, k, dk_dw, act)
             J = assemble_jacobian(
-                pattern, blocks=blocks, g_values=-coef[:, None] * self._g,
+                pattern, blocks=blocks, g_values=g_values,
                 gt_values=(rho_dt * self.height * coef)[:, None] * self._g,
-                wall_column=-self.f_wall[wr], wall_row=wall_row,
+                wall_column=self._wall_column, wall_row=wall_row,
                 flow_values=fr.jacobian_values, crack=crack)
             # floating DOFs: nodes held only by open contacts (a detached fragment
             # between crack faces; their only stiffness is the 1e-9 regularisation of
@@ -821,6 +838,20 @@ class CoupledModel:
         mass_scale = fr.throughput + self._gross_storage(it, old) / dt
         return CoupledResidual(R, J, force_scale, mass_scale, fr, it,
                                (Fn, Fs, status, Un, Us), k, pattern, status)
+
+    def _cluster_memo(self, cs: np.ndarray, failed: np.ndarray) -> tuple:
+        """``(coef, G entries -coef g, 1e-4 max |f_c^0| of the failed clusters or None)``
+        for the cluster states ``cs``, remembered for the last states asked."""
+        key = cs.tobytes()
+        if self._cs_memo is None or self._cs_memo[0] != key:
+            coef = self.coefficients(cs)
+            g_values = -coef[:, None] * self._g
+            fc0 = (1e-4 * float(np.max(np.abs(self._fc0[failed]))) if failed.any()
+                   else None)
+            for a in (coef, g_values):
+                a.setflags(write=False)
+            self._cs_memo = (key, (coef, g_values, fc0))
+        return self._cs_memo[1]
 
     def _crack_entries(self, flow_state, k, dk_dw, act) -> tuple:
         """``(dR/dk entries, their cells, dk/du)`` of the crack block: ``dk/du = dk/dw_n
@@ -862,7 +893,7 @@ class CoupledModel:
     def _gross_storage(self, st: CoupledState, old: CoupledState) -> float:
         """Sum of the magnitudes of the separate storage terms of a step [kg]."""
         f = self.flow
-        rho_o = f.fluid.rho(old.p)
+        rho_o = f.density_of(old.p)
         dp = st.p - old.p
         comp = f.volumes * rho_o * (f.porosity * f.fluid.compressibility
                                     + f.porosity * f.rock.pore_compressibility) * np.abs(dp)

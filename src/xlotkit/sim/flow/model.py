@@ -436,6 +436,9 @@ class FlowModel:
         dmask = np.isin(tag, np.array(list(fixed.keys()), dtype=np.int64)) & ~interior
         dirichlet = np.flatnonzero(dmask)
         d_p = np.array([fixed[int(t)] for t in tag[dirichlet]], dtype=float)
+        d_p.setflags(write=False)
+        # (density_of: the densities of the last read-only pressure arrays asked)
+        self._density_memo: list = []
         ia = owners[interior, 0]
         ib = owners[interior, 1]
         self._conn = _Connections(
@@ -535,6 +538,22 @@ class FlowModel:
         vx = (np.zeros(self.n_cells) if extra_pore_volume is None
               else np.broadcast_to(np.asarray(extra_pore_volume, float), (self.n_cells,)))
         return FlowState(t, p, p_w, vx)
+
+    def density_of(self, p: np.ndarray) -> np.ndarray:
+        """``rho(p)`` [kg/m^3] of a pressure array; for a read-only array (a state's, the
+        boundary pressures) remembered with the fluid it was computed for: the old
+        state's densities are asked at every Newton iteration of a step."""
+        memo = self._density_memo
+        if isinstance(p, np.ndarray) and not p.flags.writeable:
+            for q, fluid, rho in memo:
+                if q is p and fluid is self.fluid:
+                    return rho
+            rho = np.asarray(self.fluid.rho(p))
+            rho.setflags(write=False)
+            memo.insert(0, (p, self.fluid, rho))
+            del memo[3:]
+            return rho
+        return self.fluid.rho(p)
 
     def transmissibilities(self, permeability=None) -> tuple[np.ndarray, np.ndarray]:
         """Face transmissibilities [m^3] for a permeability field (default: the rock's).
@@ -704,7 +723,7 @@ class FlowModel:
         vx, vxo = state.extra_pore_volume, state_old.extra_pore_volume
 
         # -- accumulation (difference form, no cancellation)
-        rho_o = f.rho(po)
+        rho_o = self.density_of(po)
         dp = p - po
         drho = rho_o * cf * dp * expm1_over_x(cf * dp)
         rho = rho_o + drho
@@ -740,7 +759,7 @@ class FlowModel:
         # -- fixed-pressure outer edges
         da = c.d_cell
         ddelta = c.d_p - p[da]
-        lam_d = f.rho(c.d_p) / mu
+        lam_d = self.density_of(c.d_p) / mu
         dup_a = ddelta < 0.0
         dlam_up = np.where(dup_a, lam[da], lam_d)
         Fd = dlam_up * Td * ddelta   # into the cell
