@@ -578,7 +578,9 @@ class LinearSolver:
             if k == 0:
                 self.stats.krylov_failures += 1
                 return None
-            y = np.linalg.solve(np.triu(H[:k, :k]), g[:k])
+            # H[:k, :k] is upper triangular as it stands: the rotations zeroed each
+            # subdiagonal entry and nothing below it was ever written
+            y = np.linalg.solve(H[:k, :k], g[:k])
             x = Z[:k].T @ y
             # the true scaled residual decides (the recurrence drifts near 1e-10)
             if np.all(np.isfinite(x)):
