@@ -739,11 +739,11 @@ class FlowModel:
         Cw = self.well_storage if well_storage is None else float(well_storage)
         rho_wo = float(f.rho(pwo))
         dpw = pw - pwo
-        drho_w = rho_wo * cf * dpw * float(expm1_over_x(cf * dpw))
+        e_w = float(expm1_over_x(cf * dpw))
+        drho_w = rho_wo * cf * dpw * e_w
         vw, vwo = state.well_extra_volume, state_old.well_extra_volume
         # compliance storage plus the extra (hole-enlargement) volume, difference form
-        store_w = (Cw * rho_wo * dpw * float(expm1_over_x(cf * dpw))
-                   + drho_w * vw + rho_wo * (vw - vwo)) / dt
+        store_w = (Cw * rho_wo * dpw * e_w + drho_w * vw + rho_wo * (vw - vwo)) / dt
         rho_w = float(f.rho(pw))
         dstore_w = (Cw * rho_w + cf * rho_w * vw) / dt
 
