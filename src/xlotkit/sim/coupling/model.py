@@ -76,6 +76,7 @@ from xlotkit.sim.coupling.assembly import (
 from xlotkit.sim.flow import FlowModel, FlowState
 from xlotkit.sim.flow.fracture import (
     cluster_length_scale,
+    crack_fields,
     crack_opening,
     crack_permeability,
     crack_permeability_derivative,
@@ -670,6 +671,10 @@ class CoupledModel:
             wn = np.maximum(gmax, 0.0)
             wh = hydraulic_aperture(np.zeros_like(w0), w0, us,
                                     None if us is None else self.dilation_angle)
+        elif us is None:
+            # the smooth law without dilation, in one compiled pass (the same numbers)
+            return crack_fields(failed, gap, np.broadcast_to(km, failed.shape),
+                                self.length_scale, self.residual_aperture)
         else:
             wn, act = crack_opening(np.where(failed[:, None], gap, 0.0))
             live = failed & (wn > 0)
