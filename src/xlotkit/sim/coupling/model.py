@@ -169,6 +169,10 @@ def _median(a: np.ndarray) -> float:
 
 # --------------------------------------------------------------------------- state
 def _ro(a, dtype=float) -> np.ndarray:
+    if (isinstance(a, np.ndarray) and a.dtype == dtype and not a.flags.writeable
+            and a.base is None):
+        # already a read-only array that owns its data (another state's): shared
+        return a
     a = np.array(a, dtype=dtype, copy=True)
     a.setflags(write=False)
     return a
@@ -526,6 +530,7 @@ class CoupledModel:
         m.sync_planes(ms.cluster_state, ms.crack_normal)
         self.mech_state0 = ms
         self.u0 = np.asarray(ms.displacement, dtype=float).reshape(-1).copy()
+        self._u0_free = self.u0[self.free_dofs]
         self.p0 = np.asarray(ms.pore_pressure, dtype=float).copy()
         self.pw0 = float(ms.wall_pressure)
         cs0 = np.asarray(ms.cluster_state)
@@ -591,12 +596,13 @@ class CoupledModel:
         st = structure
         u = self.u0.copy()
         u[self.free_dofs] = x[:nu]
-        du = x[:nu] - self.u0[self.free_dofs]
+        du = x[:nu] - self._u0_free
         cs = self._cs0 if st is None else st.cluster_state
         du_full = np.zeros(self.mechanics.n_dof)
         du_full[self.free_dofs] = du
         gdu = np.einsum("ci,ci->c", self._g, du_full[self.mechanics.dofs])
-        vx = self.height * self.coefficients(cs) * gdu
+        cs = np.asarray(cs)
+        vx = self.height * self._cluster_memo(cs, cs != INTACT)[0] * gdu
         if st is not None:
             vx = vx + st.volume_offset
         vw = self.height * float(self.f_wall @ du) if self.hole_volume_change else 0.0
