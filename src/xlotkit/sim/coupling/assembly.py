@@ -35,6 +35,10 @@ __all__ = ["CoupledLayout", "CoupledPattern", "add_crack_block", "assemble_jacob
            "cluster_forces", "hold_rows"]
 
 
+#: Patterns a layout keeps (by their crack cells) besides the last one.
+_RECENT_PATTERNS = 8
+
+
 # --------------------------------------------------------------------------- kernels
 @njit(cache=True)
 def _scatter(data, slots, vals):  # pragma: no cover - compiled
@@ -297,6 +301,9 @@ class CoupledLayout:
         self._crack_keys = np.where(ok, (nu + pr)[:, None] * np.int64(n) + cr, -1)
         self._diag_keys = np.arange(nu, dtype=np.int64) * (n + 1)
         self._cached: CoupledPattern | None = None
+        # the last few patterns by their crack cells (a step retried after a failure
+        # round, or cut, goes back to the set before; building one costs ~2 ms)
+        self._recent: dict[bytes, CoupledPattern] = {}
 
     @property
     def permeability_cells(self) -> np.ndarray:
@@ -306,7 +313,7 @@ class CoupledLayout:
     def pattern(self, crack_cells: np.ndarray) -> CoupledPattern:
         """The CSR structure with the ``dk/du`` columns of ``crack_cells`` (bool, (m,)).
 
-        The last pattern is cached: the same set gives the same object (what the linear
+        The last patterns are cached: the same set gives the same object (what the linear
         solver's reuse of its ordering keys on)."""
         cc = np.asarray(crack_cells, dtype=bool)
         if cc.shape != (self.n_cells,):
@@ -314,6 +321,11 @@ class CoupledLayout:
                              key="crack_cells")
         if self._cached is not None and np.array_equal(self._cached.crack_cells, cc):
             return self._cached
+        key = np.packbits(cc).tobytes()
+        pat = self._recent.get(key)
+        if pat is not None:
+            self._cached = pat
+            return pat
         n = self.n
         base = self._base
         use = cc[self._perm_cell] & self._perm_valid
@@ -346,6 +358,9 @@ class CoupledLayout:
             flow_slots=shifted("flow"), crack_slots=np.where(ck >= 0, crack, -1),
             diag_slots=diag.astype(np.int64), crack_cells=cc.copy())
         self._cached = pat
+        if len(self._recent) >= _RECENT_PATTERNS:
+            self._recent.pop(next(iter(self._recent)))
+        self._recent[key] = pat
         return pat
 
 
