@@ -33,6 +33,7 @@ lies on sigma_H by construction, on the free path it zigzags through whole trian
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -108,9 +109,16 @@ def _broke_down(r) -> None:
     _along_sigma_H(r)
 
 
-def _report(r, note: str = "") -> None:
+def _run(data: dict, stop_length: float | None = None):
+    """:func:`stability_harness.run`, and the CPU time it took [s]."""
+    c0 = time.process_time()
+    r = run(data, stop_length=stop_length)
+    return r, time.process_time() - c0
+
+
+def _report(r, cpu: float) -> None:
     """One line of what the run measured (shown with ``pytest -s``; the table of
-    docs/benchmarks.md is made of these lines)."""
+    docs/benchmarks.md is made of these lines). Nothing is asserted on the time."""
     e = r.engine
     c, st = e.stepper.counters, e.stepper.state
     fs = fracture_summary(e.cm, st)
@@ -122,7 +130,7 @@ def _report(r, note: str = "") -> None:
           f"{te['initiation_pressure'] / 1e5:.2f} bar, FBP {fbp}, azimuth "
           f"{fs.azimuth_deg:.2f} deg (tolerance {resolution_tilt(r):.2f}), wings "
           f"{fs.wing_lengths[0]:.2f} / {fs.wing_lengths[1]:.2f} m, max mass balance "
-          f"{max(r.mass_balance):.1e} {note}")
+          f"{max(r.mass_balance):.1e}, CPU {cpu:.1f} s")
 
 
 # ---------------------------------------------------------------------------- 48 segments
@@ -138,9 +146,9 @@ def _breakdown_48(band: str | None) -> None:
     30.20 MPa, 0.27 s after the start; between the penetrating 26.5 and impermeable
     33.7 MPa of test_hard_cases) and there is no intact pressurisation to fit. The
     tight-brine case below runs the same wall with a long intact phase and checks it."""
-    r = run(_free(mesh=_wall48(band), schedule=_pump("300 l/min", "1 m3")),
-            stop_length=STOP)
-    _report(r)
+    r, cpu = _run(_free(mesh=_wall48(band), schedule=_pump("300 l/min", "1 m3")),
+                  stop_length=STOP)
+    _report(r, cpu)
     assert_stable(r, check_slope=False)
     _broke_down(r)
 
@@ -157,9 +165,9 @@ def test_48_segment_wall_fine_band_breaks_down():
 def _tight_brine_48(band: str | None) -> None:
     """k = 1e-21 m^2 on the 48-segment wall: the crack is fed only along itself while the
     well's compressed fluid drives it; the wall initiates as an impermeable one."""
-    r = run(_free(mesh=_wall48(band), rock={"permeability": 1e-21},
+    r, cpu = _run(_free(mesh=_wall48(band), rock={"permeability": 1e-21},
                   schedule=_pump("300 l/min", "1.2 m3")), stop_length=STOP)
-    _report(r)
+    _report(r, cpu)
     assert_stable(r)
     _broke_down(r)
     k_ic = 1.11 * 3e6 * 1e-4 ** 0.25
@@ -182,20 +190,20 @@ def _snap_off_48(band: str | None) -> None:
     """test_hard_cases.test_fast_flowback_snaps_the_fracture_off_near_the_well on the
     48-segment wall: tight rock, the hole's own storage, breakdown and ~2 m of crack,
     shut-in, a 200 l/min choke flowback to 24 MPa, shut-in, a second pump-in, shut-in.
-    Snapped off: on each wing at the end of the flowback a closed crack cluster lies
-    between the hole and an open one farther out, whose fluid stays at least 1 MPa above
-    the well's (trapped, not flowing back)."""
-    r = run(_free(mesh=_wall48(band), rock={"permeability": 1e-20},
-                  effects={"well_storage": False},
-                  schedule={"phase": [
-                      {"kind": "pump", "rate": "5 l/min", "duration": "52 s"},
-                      {"kind": "shut_in", "duration": "10 s"},
-                      {"kind": "flowback", "initial_rate": "200 l/min",
-                       "pressure_below": "24 MPa"},
-                      {"kind": "shut_in", "duration": "10 s"},
-                      {"kind": "pump", "rate": "5 l/min", "duration": "20 s"},
-                      {"kind": "shut_in", "duration": "10 s"}]}))
-    _report(r)
+    Snapped off: on each wing that carries a crack, at the end of the flowback, a closed
+    crack cluster lies between the hole and an open one farther out, whose fluid stays at
+    least 1 MPa above the well's (trapped, not flowing back)."""
+    r, cpu = _run(_free(mesh=_wall48(band), rock={"permeability": 1e-20},
+                        effects={"well_storage": False},
+                        schedule={"phase": [
+                            {"kind": "pump", "rate": "5 l/min", "duration": "52 s"},
+                            {"kind": "shut_in", "duration": "10 s"},
+                            {"kind": "flowback", "initial_rate": "200 l/min",
+                             "pressure_below": "24 MPa"},
+                            {"kind": "shut_in", "duration": "10 s"},
+                            {"kind": "pump", "rate": "5 l/min", "duration": "20 s"},
+                            {"kind": "shut_in", "duration": "10 s"}]}))
+    _report(r, cpu)
     assert_stable(r)
     e = r.engine
     assert e.truth_events["breakdown_time"] is not None
@@ -243,10 +251,11 @@ def test_nine_wall_segments_strongly_graded_on_the_free_path():
     is held to the resolution tolerance instead of a fixed 10 deg: the clusters at the
     crack's tip are ~0.6 m across (h = 0.1 + 0.8 (r - a)), so the tolerance is wide, and
     the measured azimuth is reported in docs/benchmarks.md."""
-    r = run(_free(mesh={"growth": 1.8, "wall_element_size": "0.1 m", "fracture_band": False,
-                        "band_strip": None, "band_width": None, "band_length": None},
-                  schedule=_pump("300 l/min", "3 m3")), stop_length=STOP)
-    _report(r)
+    r, cpu = _run(_free(mesh={"growth": 1.8, "wall_element_size": "0.1 m",
+                              "fracture_band": False, "band_strip": None, "band_width": None,
+                              "band_length": None},
+                        schedule=_pump("300 l/min", "3 m3")), stop_length=STOP)
+    _report(r, cpu)
     assert_stable(r)
     e = r.engine
     assert len(e.cm.mesh.hole_nodes) == 9
