@@ -20,10 +20,12 @@ the harness's band elements (0.08 m, 1182 triangles; fast suite) and band elemen
 to the wall's (the harness's default when the band size is not given; 8418 triangles;
 ``slow``).
 
-Measured CPU times (2026-12-03, this module's cases alone, 2-core machine under load):
-fast: 48-segment breakdown ~16 s, tight brine ~29 s, snap-off ~12 s, 9-segment graded
-~2 s; slow (not in CI): see the marks below and docs/benchmarks.md, "Stability on the
-free path at finer meshes".
+Measured CPU times (2026-12-03, one run each, 2-core machine at load 4-5): fast suite:
+48-segment breakdown 14.9 s, tight brine 31.6 s, snap-off 13.4 s, 9-segment graded 1.5 s;
+``slow`` (band elements = the wall's, 8418 triangles; not in CI):
+``test_48_segment_wall_fine_band_breaks_down`` 245 s, ``..._tight_brine`` 440 s,
+``..._fast_flowback_snaps_off`` 300 s. All numbers in docs/benchmarks.md, "Stability on
+the free path at finer meshes".
 
 The crack's azimuth is asserted against the tilt that one element of lateral offset
 would give (:func:`resolution_tilt`), not against a fixed number: on the strip the crack
